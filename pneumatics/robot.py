@@ -1,0 +1,138 @@
+"""A pneumatic robot: its MuJoCo model and its fluid-power parameters, checked against each other."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+import models
+
+from .errors import ConfigError, UnknownNameError
+from .params import FluidCfg, load_fluid
+from .tables import FluidTables
+
+
+@dataclass
+class Robot:
+    """A loaded model.
+
+    Attributes:
+      name: model name (folder name under ``models/``).
+      model: compiled ``mujoco.MjModel``.
+      fluid: validated fluid-power parameters.
+      joint_names: (n_joint,) recorded joints (every hinge and slide joint).
+      actuator_ids: (n_act,) MuJoCo actuator id of each fluid actuator, in TOML order.
+      tables: flat arrays for the fluid update.
+    """
+
+    name: str
+    model: mujoco.MjModel
+    fluid: FluidCfg
+    joint_names: list[str]
+    actuator_ids: np.ndarray
+    tables: FluidTables
+    mjcf_path: Path | None = None
+
+    @property
+    def actuator_names(self) -> list[str]:
+        return self.fluid.actuator_names
+
+    @property
+    def chamber_names(self) -> list[tuple[str, str]]:
+        """(actuator, 'a'|'b') for each chamber, in state order a0, b0, a1, b1, ..."""
+        return [(a, c) for a in self.actuator_names for c in ("a", "b")]
+
+    @property
+    def qpos_index(self) -> np.ndarray:
+        return np.array([self.model.jnt_qposadr[self.model.joint(n).id] for n in self.joint_names], int)
+
+    @property
+    def dof_index(self) -> np.ndarray:
+        return np.array([self.model.jnt_dofadr[self.model.joint(n).id] for n in self.joint_names], int)
+
+    def joint_range(self) -> np.ndarray:
+        """(n_joint, 2) joint limits [rad or m]."""
+        return np.array([self.model.jnt_range[self.model.joint(n).id] for n in self.joint_names])
+
+    def with_fluid(self, fluid: FluidCfg) -> "Robot":
+        """The same MuJoCo model with other fluid parameters (perturbations, fitted values)."""
+        return _assemble(self.name, self.model, fluid, self.mjcf_path)
+
+
+def compile_mjcf(path: Path) -> mujoco.MjModel:
+    try:
+        return mujoco.MjModel.from_xml_path(str(path))
+    except ValueError as e:  # MuJoCo's XML and compile errors
+        msg = " ".join(str(e).split())
+        raise ConfigError(f"{path}: MJCF does not compile: {msg}") from None
+
+
+def load_robot(name: str, *, fluid: FluidCfg | None = None, scene: bool = False) -> Robot:
+    """Load model ``name`` (``models.available()`` lists them).
+
+    ``fluid`` replaces the TOML parameters; ``scene`` loads ``scene.xml`` (floor, lights).
+    """
+    try:
+        path = models.mjcf_path(name, scene=scene)
+    except models.UnknownModelError:
+        raise UnknownNameError("model", name, models.available()) from None
+    model = compile_mjcf(path)
+    fluid = fluid or load_fluid(models.fluid_path(name))
+    return _assemble(name, model, fluid, path)
+
+
+def _assemble(name, model, fluid, path) -> Robot:
+    ids = []
+    mj_names = [model.actuator(i).name for i in range(model.nu)]
+    for act in fluid.actuators:
+        if act.name not in mj_names:
+            raise ConfigError(f"{name}: fluid actuator {act.name!r} has no MJCF actuator of that name; "
+                              f"MJCF actuators: {', '.join(mj_names) or 'none'}")
+        i = mj_names.index(act.name)
+        if (int(model.actuator_dyntype[i]) != int(mujoco.mjtDyn.mjDYN_NONE)
+                or int(model.actuator_biastype[i]) != int(mujoco.mjtBias.mjBIAS_NONE)
+                or model.actuator_gainprm[i, 0] != 1.0):
+            raise ConfigError(f"{name}: MJCF actuator {act.name!r} must be a plain force actuator "
+                              "(<motor> or <general> with gain 1, no bias, no dynamics)")
+        if model.actuator_ctrllimited[i]:
+            raise ConfigError(f"{name}: MJCF actuator {act.name!r} must not be ctrllimited: its ctrl is "
+                              "the cylinder force computed by the fluid layer")
+        ids.append(i)
+    joints = [model.joint(j).name for j in range(model.njnt)
+              if int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))]
+    # piston position x = L - L_zero; at qpos0 the piston sits at position_at_zero
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    length0 = data.actuator_length[ids]
+    length_zero = np.array([l0 - a.zero_position for l0, a in zip(length0, fluid.actuators)])
+    _check_travel(name, model, fluid, ids, length_zero)
+    return Robot(name, model, fluid, joints, np.array(ids, int), FluidTables.build(fluid, length_zero), path)
+
+
+def _check_travel(name, model, fluid, ids, length_zero):
+    """A joint transmission's full joint range must keep its piston inside the stroke."""
+    for a, i, lz in zip(fluid.actuators, ids, length_zero):
+        if int(model.actuator_trntype[i]) != int(mujoco.mjtTrn.mjTRN_JOINT):
+            continue
+        j = model.actuator_trnid[i, 0]
+        if not model.jnt_limited[j]:
+            continue
+        gear = model.actuator_gear[i, 0]
+        lengths = gear * model.jnt_range[j] - lz
+        if lengths.min() < -1e-9 or lengths.max() > a.stroke + 1e-9:
+            raise ConfigError(f"{name}: joint {model.joint(j).name!r} range moves actuator {a.name!r} "
+                              f"to {lengths.min():.4g}..{lengths.max():.4g}, outside its stroke [0, {a.stroke:.4g}]")
+
+
+def joint_index(robot: Robot, joint: str) -> int:
+    if joint not in robot.joint_names:
+        raise UnknownNameError("joint", joint, robot.joint_names)
+    return robot.joint_names.index(joint)
+
+
+def actuator_index(robot: Robot, actuator: str) -> int:
+    if actuator not in robot.actuator_names:
+        raise UnknownNameError("actuator", actuator, robot.actuator_names)
+    return robot.actuator_names.index(actuator)
