@@ -1,1 +1,1 @@
-"""pneumasim: pneumasim."""
+"""pneumasim: command line and benchmarks."""

@@ -4,7 +4,8 @@ Pressure ODE, paper 002 eq. 9 (paper 000 eq. 12), with a polytropic exponent n i
 
     dp/dt = n / V * (R T mdot - p dV/dt),     mdot = mdot_supply(p) - mdot_exhaust(p)
 
-Integration over one physics step h (1 ms) uses the two-stage, second-order, L-stable
+Integration over one physics step h (1 ms), once MuJoCo has made it (so the volume change
+over the step is known exactly), uses the two-stage, second-order, L-stable
 Rosenbrock method ROS2 (Verwer et al., SIAM J. Sci. Comput. 20, 1999), gamma = 1 + 1/sqrt 2,
 with the exact scalar Jacobian J = dp'/dp of each chamber::
 
@@ -13,10 +14,12 @@ with the exact scalar Jacobian J = dp'/dp of each chamber::
     p+ = p + 3/2 h k1 + 1/2 h k2
 
 Explicit Euler is unstable at 1 ms for the smallest dead volumes (|J h| > 2 near the
-zero-flow point), while ROS2 is stable for any stiffness.  Volume and volume rate are taken at
-the step's midpoint and held over it.  A chamber whose pressure would change by more than a
-quarter in one step (a violent expansion of a small volume) is re-integrated with 2, 4, ..
-64 equal sub-steps, so pressures stay positive without clamping.
+zero-flow point), while ROS2 is stable for any stiffness.  Volume (at the step's midpoint) and volume
+rate are held over the step.  A chamber whose pressure would change by more than a
+quarter in one step (a violent expansion of a small volume), or whose embedded first-order
+solution p + h k1 differs from p+ by more than ERR_TOL = 0.1 % of p, is re-integrated with
+2, 4, .. 64 equal sub-steps, so pressures stay positive and bounded without clamping; at 1 ms
+with the shipped models this refinement is rare (counted in tests/test_kernel.py).
 
 This module is the readable reference; :mod:`pneumatics.kernel` is the compiled fast path
 with the same arithmetic, tested against it to round-off.
@@ -27,10 +30,12 @@ import numpy as np
 
 from .medium import GasCfg, orifice_flow
 from .tables import FluidTables, valve_areas_table
+from .valve import valve_areas
 
 GAMMA = 1.0 + 1.0 / np.sqrt(2.0)
 MAX_HALVINGS = 6
 MAX_REL_CHANGE = 0.25
+ERR_TOL = 1e-3
 
 
 def pressure_rate(p, volume, volume_rate, a_supply, a_exhaust, gas: GasCfg, supply_pa, room_pa):
@@ -45,26 +50,34 @@ def pressure_rate(p, volume, volume_rate, a_supply, a_exhaust, gas: GasCfg, supp
 
 
 def ros2_step(p, h, rhs):
-    """One ROS2 step of size h for the scalar ODEs p' = rhs(p) -> (rate, jac)."""
+    """One ROS2 step of size h for the scalar ODEs p' = rhs(p) -> (rate, jac).
+
+    Returns (p+, error estimate): the difference to the embedded first-order solution
+    p + h k1 (Verwer et al. 1999), used to refine the step."""
     f0, jac = rhs(p)
     denom = 1.0 - GAMMA * h * jac
     k1 = f0 / denom
     f1, _ = rhs(p + h * k1)
     k2 = (f1 - 2.0 * k1) / denom
-    return p + 1.5 * h * k1 + 0.5 * h * k2
+    return p + 1.5 * h * k1 + 0.5 * h * k2, 0.5 * h * np.abs(k1 + k2)
 
 
-def chamber_geometry(tables: FluidTables, length, velocity, dt):
-    """Midpoint volume [m^3] and volume rate [m^3/s] of every chamber, each (n_ch,)."""
+def chamber_geometry(tables: FluidTables, prev_length, length, dt):
+    """Mean volume [m^3] and volume rate [m^3/s] of every chamber, each (n_ch,), over a step
+    in which the actuators moved from ``prev_length`` to ``length`` (n_act,).
+
+    Using the volume change MuJoCo actually made (rather than the velocity at the step's
+    start) keeps closed chambers exactly consistent with the motion: p V^n stays constant
+    to third order per step, even through impacts at the joint limits.
+    """
     act = tables.actuator_of_chamber
-    x = length[act] - tables.length_zero[act]
-    xdot = velocity[act]
     stroke = tables.stroke[act]
-    x_mid = np.clip(x + 0.5 * dt * xdot, 0.0, stroke)
+    x0 = np.clip(prev_length[act] - tables.length_zero[act], 0.0, stroke)
+    x1 = np.clip(length[act] - tables.length_zero[act], 0.0, stroke)
+    x_mid = 0.5 * (x0 + x1)
     travel = np.where(tables.is_a, x_mid, stroke - x_mid)
     volume = tables.dead_volume + tables.area * travel
-    at_stop = ((x_mid <= 0.0) & (xdot < 0)) | ((x_mid >= stroke) & (xdot > 0))
-    volume_rate = np.where(at_stop, 0.0, np.where(tables.is_a, 1.0, -1.0) * tables.area * xdot)
+    volume_rate = np.where(tables.is_a, 1.0, -1.0) * tables.area * (x1 - x0) / dt
     return volume, volume_rate
 
 
@@ -74,25 +87,32 @@ def actuator_force(tables: FluidTables, p):
     return tables.area_a * p_a - tables.area_b * p_b - (tables.area_a - tables.area_b) * tables.room_pa
 
 
-def fluid_step(tables: FluidTables, p, command_v, length, velocity, dt):
-    """Advance chamber pressures by one step.
+def fluid_step(tables: FluidTables, p, command_v, prev_length, length, dt):
+    """Advance chamber pressures over one step.
 
     Args:
       tables: the model's fluid tables.
       p: (n_ch,) pressures [Pa abs] at t, chambers ordered a0, b0, a1, b1, ...
-      command_v: (n_ch,) valve commands [V], already clipped to the valve range.
-      length, velocity: (n_act,) MuJoCo actuator length [m or rad] and velocity at t.
+      command_v: (n_ch,) valve commands [V] held over the step, already clipped.
+      prev_length, length: (n_act,) MuJoCo actuator lengths [m or rad] at t and t + dt.
       dt: step [s].
     Returns:
       (n_ch,) pressures at t + dt.
     """
-    volume, volume_rate = chamber_geometry(tables, length, velocity, dt)
+    volume, volume_rate = chamber_geometry(tables, prev_length, length, dt)
     a_s, a_e = valve_areas_table(tables, command_v)
-    gas = tables.gas
+    return integrate(p, volume, volume_rate, a_s, a_e, tables.gas, tables.supply_pa, tables.room_pa, dt)
 
+
+def integrate(p, volume, volume_rate, a_supply, a_exhaust, gas: GasCfg, supply_pa, room_pa, dt):
+    """Adaptive ROS2 over one step dt for chambers with volume and volume rate held.
+
+    All arrays (n,); returns the (n,) pressures at t + dt.  A chamber whose pressure would
+    change by more than MAX_REL_CHANGE in a sub-step is redone with twice as many sub-steps.
+    """
     def rhs(q, idx):
-        return pressure_rate(q, volume[idx], volume_rate[idx], a_s[idx], a_e[idx], gas,
-                             tables.supply_pa, tables.room_pa)
+        return pressure_rate(q, volume[idx], volume_rate[idx], a_supply[idx], a_exhaust[idx], gas,
+                             supply_pa, room_pa)
 
     out = np.empty_like(p)
     todo = np.arange(p.size)
@@ -102,8 +122,8 @@ def fluid_step(tables: FluidTables, p, command_v, length, velocity, dt):
         q = p[todo].copy()
         ok = np.ones(todo.size, bool)
         for _ in range(n_sub):
-            q_new = ros2_step(q, h, lambda y: rhs(y, todo))
-            ok &= np.isfinite(q_new) & (np.abs(q_new - q) <= MAX_REL_CHANGE * q)
+            q_new, err = ros2_step(q, h, lambda y: rhs(y, todo))
+            ok &= np.isfinite(q_new) & (np.abs(q_new - q) <= MAX_REL_CHANGE * q) & (err <= ERR_TOL * q)
             q = q_new
         if level == MAX_HALVINGS:
             ok[:] = True
@@ -112,3 +132,27 @@ def fluid_step(tables: FluidTables, p, command_v, length, velocity, dt):
         if todo.size == 0:
             break
     return out
+
+
+def static_transient(valve_rows, volume_m3, p0_pa, command_v, duration_s, dt, gas: GasCfg,
+                     supply_pa, room_pa):
+    """Pressure transients of chambers at fixed volume (the calibration test of 002 eq. 10).
+
+    Args:
+      valve_rows: (n, 8) or (1, 8) valve parameters (pneumatics.valve.VALVE_COLUMNS).
+      volume_m3: scalar or (n,) chamber volumes.
+      p0_pa: scalar or (n,) initial pressures; command_v: (n,) constant commands.
+    Returns:
+      (time (T,), pressure (T, n)) with T = round(duration_s / dt) + 1.
+    """
+    command_v = np.asarray(command_v, float)
+    n = command_v.size
+    a_s, a_e = valve_areas(command_v, np.asarray(valve_rows, float))
+    volume = np.broadcast_to(np.asarray(volume_m3, float), (n,)).copy()
+    rate = np.zeros(n)
+    steps = int(round(duration_s / dt))
+    out = np.empty((steps + 1, n))
+    out[0] = np.broadcast_to(np.asarray(p0_pa, float), (n,))
+    for k in range(steps):
+        out[k + 1] = integrate(out[k], volume, rate, a_s, a_e, gas, supply_pa, room_pa, dt)
+    return np.arange(steps + 1) * dt, out

@@ -22,6 +22,7 @@ from .medium import _psi as _psi_ref
 GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
 MAX_HALVINGS = 6
 MAX_REL_CHANGE = 0.25
+ERR_TOL = 1e-3
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -66,52 +67,85 @@ def _rate(p, volume, volume_rate, a_s, a_e, glob):
             n / volume * (rt * (dms - dme) - volume_rate))
 
 
-@numba.njit(cache=True, error_model="numpy")
-def fluid_step_fast(p, areas, length, velocity, ctrl, act, ch, glob):
-    """Write forces from p(t) into ``ctrl``, then advance ``p`` in place to t + dt.
-
-    Args (shapes): p (n_ch,) Pa; areas (n_ch, 2) valve supply and exhaust areas [m^2]
-    (pneumatics.valve.valve_areas of the commands); length, velocity (n_act,);
-    ctrl (nu,) MuJoCo controls; act, ch, glob as in the module docstring.
-    """
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def write_forces(p, ctrl, act, glob):
+    """ctrl[actuator] = A_a p_a - A_b p_b - (A_a - A_b) p_room for every actuator."""
     room = glob[9]
-    dt = glob[10]
     for j in range(act.shape[0]):
         aa, ab = act[j, 0], act[j, 1]
         ctrl[int(act[j, 4])] = aa * p[2 * j] - ab * p[2 * j + 1] - (aa - ab) * room
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
+    """Advance p in place over one step, the actuators moving from prev_length to length.
+
+    Args (shapes): p (n_ch,) Pa; areas (n_ch, 2) valve supply and exhaust areas [m^2]
+    (pneumatics.valve.valve_areas of the commands); prev_length, length (n_act,) actuator
+    lengths at the step's start and end; act, ch, glob as in the module docstring.
+    """
+    dt = glob[10]
     for i in range(ch.shape[0]):
         j = int(ch[i, 3])
         stroke = act[j, 2]
-        x = length[j] - act[j, 3]
-        xdot = velocity[j]
-        x_mid = min(max(x + 0.5 * dt * xdot, 0.0), stroke)
-        is_a = ch[i, 2] > 0.5
-        travel = x_mid if is_a else stroke - x_mid
-        volume = ch[i, 1] + ch[i, 0] * travel
-        if (x_mid <= 0.0 and xdot < 0.0) or (x_mid >= stroke and xdot > 0.0):
-            vrate = 0.0
+        x0 = min(max(prev_length[j] - act[j, 3], 0.0), stroke)
+        x1 = min(max(length[j] - act[j, 3], 0.0), stroke)
+        x_mid = 0.5 * (x0 + x1)
+        if ch[i, 2] > 0.5:
+            volume = ch[i, 1] + ch[i, 0] * x_mid
+            vrate = ch[i, 0] * (x1 - x0) / dt
         else:
-            vrate = (1.0 if is_a else -1.0) * ch[i, 0] * xdot
-        a_s, a_e = areas[i, 0], areas[i, 1]
-        p0 = p[i]
-        for level in range(MAX_HALVINGS + 1):
-            n_sub = 2 ** level
-            h = dt / n_sub
-            q = p0
-            ok = True
-            for _ in range(n_sub):
-                f0, jac = _rate(q, volume, vrate, a_s, a_e, glob)
-                denom = 1.0 - GAMMA * h * jac
-                k1 = f0 / denom
-                f1, _j = _rate(q + h * k1, volume, vrate, a_s, a_e, glob)
-                k2 = (f1 - 2.0 * k1) / denom
-                q_new = q + 1.5 * h * k1 + 0.5 * h * k2
-                if not (math.isfinite(q_new) and abs(q_new - q) <= MAX_REL_CHANGE * q):
-                    ok = False
-                q = q_new
-            if ok or level == MAX_HALVINGS:
-                p[i] = q
-                break
+            volume = ch[i, 1] + ch[i, 0] * (stroke - x_mid)
+            vrate = -ch[i, 0] * (x1 - x0) / dt
+        p[i] = _adaptive_ros2(p[i], volume, vrate, areas[i, 0], areas[i, 1], glob, dt)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def fluid_step_fast(p, areas, prev_length, length, ctrl, act, ch, glob):
+    """Integrate the step that just ended (prev_length -> length), write the forces of the new
+    pressures into ``ctrl`` and remember ``length`` in ``prev_length``."""
+    integrate_chambers(p, areas, prev_length, length, act, ch, glob)
+    write_forces(p, ctrl, act, glob)
+    for j in range(length.shape[0]):
+        prev_length[j] = length[j]
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _adaptive_ros2(p0, volume, vrate, a_s, a_e, glob, dt):
+    """One step dt of the adaptive ROS2 of chamber.integrate, for one chamber."""
+    q = p0
+    for level in range(MAX_HALVINGS + 1):
+        n_sub = 2 ** level
+        h = dt / n_sub
+        q = p0
+        ok = True
+        for _ in range(n_sub):
+            f0, jac = _rate(q, volume, vrate, a_s, a_e, glob)
+            denom = 1.0 - GAMMA * h * jac
+            k1 = f0 / denom
+            f1, _j = _rate(q + h * k1, volume, vrate, a_s, a_e, glob)
+            k2 = (f1 - 2.0 * k1) / denom
+            q_new = q + 1.5 * h * k1 + 0.5 * h * k2
+            # reject: non-finite, too large a change, or the embedded first-order solution
+            # q + h k1 disagreeing by more than ERR_TOL (step-doubling control, Hairer-Wanner IV.7)
+            if not (math.isfinite(q_new) and abs(q_new - q) <= MAX_REL_CHANGE * q
+                    and 0.5 * h * abs(k1 + k2) <= ERR_TOL * q):
+                ok = False
+            q = q_new
+        if ok:
+            break
+    return q
+
+
+@numba.njit(cache=True, error_model="numpy")
+def static_transient_fast(p0, volume, a_s, a_e, glob, dt, out):
+    """Fixed-volume transients (chamber.static_transient): fills out (T, n) from p0 (n,)."""
+    n = p0.shape[0]
+    for i in range(n):
+        out[0, i] = p0[i]
+    for k in range(out.shape[0] - 1):
+        for i in range(n):
+            out[k + 1, i] = _adaptive_ros2(out[k, i], volume[i], 0.0, a_s[i], a_e[i], glob, dt)
 
 
 def pack(tables, ctrl_index, dt):
@@ -128,7 +162,7 @@ def pack(tables, ctrl_index, dt):
 # without returning to Python (a Python-level loop costs ~1 us a step, a third of a 2-DOF
 # mj_step).  Where MuJoCo's shared library cannot be found, Simulation falls back to a
 # Python loop around the same kernel.
-def _load_mujoco_steps():
+def _load_mujoco_functions():
     import ctypes
     import glob as _glob
     import os
@@ -140,7 +174,7 @@ def _load_mujoco_steps():
         return None
     lib = ctypes.CDLL(libs[0])
     fns = []
-    for name in ("mj_step1", "mj_step2"):
+    for name in ("mj_step1", "mj_step2", "mj_kinematics", "mj_comPos", "mj_tendon", "mj_transmission"):
         fn = getattr(lib, name)
         fn.argtypes = [ctypes.c_uint64, ctypes.c_uint64]  # (const mjModel*, mjData*)
         fn.restype = None
@@ -148,17 +182,46 @@ def _load_mujoco_steps():
     return fns
 
 
-_STEPS = _load_mujoco_steps()
+_FUNCTIONS = _load_mujoco_functions()
 
-if _STEPS is not None:
-    _mj_step1, _mj_step2 = _STEPS
+if _FUNCTIONS is not None:
+    _mj_step1, _mj_step2, _mj_kinematics, _mj_comPos, _mj_tendon, _mj_transmission = _FUNCTIONS
 
     @numba.njit(cache=False, error_model="numpy")
-    def run_steps_compiled(n, model_addr, data_addr, p, areas, length, velocity, ctrl, act, ch, glob):
-        """n x (mj_step1; fluid_step_fast; mj_step2) without leaving compiled code."""
-        for _ in range(n):
+    def run_steps_compiled(n, model_addr, data_addr, p, areas, prev_length, length, ctrl, act, ch,
+                           glob, qpos, qvel, acc):
+        """n physics steps without leaving compiled code (see Simulation.step for the scheme).
+
+        Adds p (n_ch,), qpos (nq,) and qvel (nv,) at each of the n new instants into ``acc``
+        (n_ch+nq+nv,), for sensor averaging over a control period (paper 002 §II).
+        """
+        for k in range(n):
             _mj_step1(model_addr, data_addr)
-            fluid_step_fast(p, areas, length, velocity, ctrl, act, ch, glob)
+            if k > 0:
+                integrate_chambers(p, areas, prev_length, length, act, ch, glob)
+                for j in range(length.shape[0]):
+                    prev_length[j] = length[j]
+                _accumulate(acc, p, qpos, qvel)
+            write_forces(p, ctrl, act, glob)
             _mj_step2(model_addr, data_addr)
+        # catch up: actuator lengths at the new state, then the last step's pressures
+        _mj_kinematics(model_addr, data_addr)
+        _mj_comPos(model_addr, data_addr)
+        _mj_tendon(model_addr, data_addr)
+        _mj_transmission(model_addr, data_addr)
+        fluid_step_fast(p, areas, prev_length, length, ctrl, act, ch, glob)
+        _accumulate(acc, p, qpos, qvel)
 else:  # pragma: no cover - platforms without libmujoco.so
     run_steps_compiled = None
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _accumulate(acc, p, qpos, qvel):
+    n_ch = p.shape[0]
+    nq = qpos.shape[0]
+    for i in range(n_ch):
+        acc[i] += p[i]
+    for i in range(nq):
+        acc[n_ch + i] += qpos[i]
+    for i in range(qvel.shape[0]):
+        acc[n_ch + nq + i] += qvel[i]

@@ -84,7 +84,11 @@ def unit_flow(p_up, p_down, gas: GasCfg):
     p_up = np.asarray(p_up, float)
     p_down = np.asarray(p_down, float)
     k, rc, rl = gas.heat_capacity_ratio, gas.critical_ratio, gas.laminar_ratio
-    r = p_down / p_up
+    with np.errstate(invalid="ignore", divide="ignore"):  # every branch is evaluated; one is kept
+        return _unit_flow_branches(p_up, p_down, p_down / p_up, gas, k, rc, rl)
+
+
+def _unit_flow_branches(p_up, p_down, r, gas, k, rc, rl):
     # choked
     f_ch = gas.c_choke * p_up
     # subsonic

@@ -1,13 +1,17 @@
 """The coupled simulation: the fluid layer writes cylinder forces into MuJoCo every step.
 
-One physics step (DESIGN.md "The simulation step")::
+One physics step (DESIGN.md "The simulation step"), the state (q, qd, p) at t::
 
-    mj_step1            positions, velocities, actuator lengths and velocities at t
-    fluid update        forces from p(t) -> data.ctrl;  p(t) -> p(t + dt)  (chamber.py / kernel.py)
-    mj_step2            accelerations and integration to t + dt
+    mj_step1            positions, velocities and actuator lengths L(t)
+    [fluid update]      pressures over the previous step, from L(t - dt) to L(t)
+    forces              F(p(t)) -> data.ctrl
+    mj_step2            accelerations and integration of q, qd to t + dt
 
-Splitting ``mj_step`` this way makes the fluid layer see the actuator length of the current
-state (after a plain ``mj_step`` ``data.actuator_length`` belongs to the previous one).
+so the chambers see exactly the volume change MuJoCo made (see chamber.chamber_geometry).
+At the end of every ``step(n)`` the lengths at the new state are computed (mj_kinematics,
+mj_comPos, mj_tendon, mj_transmission) and the last step's pressures integrated, so q, qd
+and p are synchronous whenever control returns to Python.  After changing ``data.qpos`` by
+hand, call :meth:`Simulation.sync` (or :meth:`reset` with ``qpos=``).
 """
 from __future__ import annotations
 
@@ -73,10 +77,14 @@ class Simulation:
         self.command = np.array(self.tables.valve[:, 0])  # each valve's null
         self.areas = np.zeros((n_ch, 2))  # valve (supply, exhaust) areas [m^2] at self.command
         self._ids = robot.actuator_ids
+        self._contiguous = bool(np.array_equal(self._ids, np.arange(self._ids.size)))
+        self._prev_length = np.zeros(self._ids.size)
         self._packed = pack(self.tables, self._ids, self.model.opt.timestep)
         self._qadr = robot.qpos_index
         self._dadr = robot.dof_index
         self._clip_warned = False
+        self.sums = np.zeros(n_ch + self.model.nq + self.model.nv)
+        self._n_summed = 0
         self.reset()
 
     # -- state ---------------------------------------------------------------------------
@@ -95,7 +103,10 @@ class Simulation:
         self.command[:] = self.tables.valve[:, 0]
         self._update_areas()
         self._clip_warned = False
+        self.sums[:] = 0.0
+        self._n_summed = 0
         mujoco.mj_forward(self.model, self.data)
+        self._prev_length[:] = self.data.actuator_length[self._ids]
         self.data.ctrl[self._ids] = actuator_force(self.tables, self.pressure)
 
     @property
@@ -144,28 +155,64 @@ class Simulation:
 
     # -- stepping ------------------------------------------------------------------------
     def step(self, n: int = 1):
-        """Advance ``n`` physics steps with the current commands."""
+        """Advance ``n`` physics steps with the current commands.
+
+        The pressures, qpos and qvel at each new instant are added into ``self.sums``
+        (see :meth:`take_mean`), for DAQ-style sensor averaging."""
         m, d = self.model, self.data
-        step1, step2 = mujoco.mj_step1, mujoco.mj_step2
+        self._n_summed += n
+        if self.kernel == "fast" and self._contiguous and run_steps_compiled is not None:
+            act, ch, glob = self._packed
+            run_steps_compiled(n, m._address, d._address, self.pressure, self.areas, self._prev_length,
+                               d.actuator_length, d.ctrl, act, ch, glob, d.qpos, d.qvel, self.sums)
+            return
+        for k in range(n):
+            mujoco.mj_step1(m, d)
+            if k > 0:
+                self._fluid_update()
+                self._accumulate()
+            d.ctrl[self._ids] = actuator_force(self.tables, self.pressure)
+            mujoco.mj_step2(m, d)
+        self.sync()
+        self._accumulate()
+
+    def sync(self):
+        """Actuator lengths at the current MuJoCo state; integrate the pressures up to it."""
+        m, d = self.model, self.data
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_tendon(m, d)
+        mujoco.mj_transmission(m, d)
+        self._fluid_update()
+        d.ctrl[self._ids] = actuator_force(self.tables, self.pressure)
+
+    def _fluid_update(self):
+        length = self.data.actuator_length[self._ids]
         if self.kernel == "fast":
             act, ch, glob = self._packed
-            ids = self._ids
-            contiguous = np.array_equal(ids, np.arange(ids.size))
-            if contiguous and run_steps_compiled is not None:
-                run_steps_compiled(n, m._address, d._address, self.pressure, self.areas,
-                                   d.actuator_length, d.actuator_velocity, d.ctrl, act, ch, glob)
-                return
-            for _ in range(n):
-                step1(m, d)
-                length = d.actuator_length if contiguous else d.actuator_length[ids]
-                velocity = d.actuator_velocity if contiguous else d.actuator_velocity[ids]
-                fluid_step_fast(self.pressure, self.areas, length, velocity, d.ctrl, act, ch, glob)
-                step2(m, d)
+            fluid_step_fast(self.pressure, self.areas, self._prev_length, length.copy(), self.data.ctrl,
+                            act, ch, glob)
+            self._prev_length[:] = length
         else:
-            for _ in range(n):
-                step1(m, d)
-                d.ctrl[self._ids] = actuator_force(self.tables, self.pressure)
-                self.pressure[:] = fluid_step(self.tables, self.pressure, self.command,
-                                              d.actuator_length[self._ids], d.actuator_velocity[self._ids],
-                                              self.dt)
-                step2(m, d)
+            self.pressure[:] = fluid_step(self.tables, self.pressure, self.command, self._prev_length,
+                                          length, self.dt)
+            self._prev_length[:] = length
+
+    def _accumulate(self):
+        n_ch, nq = self.pressure.size, self.model.nq
+        self.sums[:n_ch] += self.pressure
+        self.sums[n_ch:n_ch + nq] += self.data.qpos
+        self.sums[n_ch + nq:] += self.data.qvel
+
+    def take_mean(self) -> Observation:
+        """Mean of the sensors over the steps since the last call (DAQ averaging), then restart.
+
+        With no step since the last call, the instantaneous values."""
+        if self._n_summed == 0:
+            return self.observe()
+        n_ch, nq = self.pressure.size, self.model.nq
+        mean = self.sums / self._n_summed
+        self.sums[:] = 0.0
+        self._n_summed = 0
+        return Observation(self.time, mean[n_ch:n_ch + nq][self._qadr],
+                           mean[n_ch + nq:][self._dadr], mean[:n_ch])

@@ -1,0 +1,210 @@
+"""Recordings: what the robot (or the simulator) logged, in the CSV format of DESIGN.md.
+
+One header row, one row per sample, strictly increasing ``time`` [s]; columns ``q.<joint>``
+[rad|m], optional ``qd.<joint>``, ``p_a.<actuator>`` / ``p_b.<actuator>`` [Pa abs],
+``u_a.<actuator>`` / ``u_b.<actuator>`` [V] (or ``i.<actuator>`` [A]), optional
+``force.<actuator>`` [N], ``tau.<joint>`` [N m], ``ref.<joint>``.  Extra columns are kept.
+A sidecar ``<name>.json`` holds metadata.  Timing convention (as the DAQ of paper 002):
+row k's sensors are the mean over the control period ending at ``time[k]``; row k's commands
+are held from ``time[k]`` to ``time[k+1]``.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import RecordingError
+from .io import atomic_write_text
+
+KNOWN_PREFIXES = ("q", "qd", "p_a", "p_b", "u_a", "u_b", "i", "force", "tau", "ref")
+JOINT_PREFIXES = ("q", "qd", "tau", "ref")
+ACTUATOR_PREFIXES = ("p_a", "p_b", "u_a", "u_b", "i", "force")
+
+
+class RecordingWarning(UserWarning):
+    """Something in a recording looks wrong but may be intended."""
+
+
+@dataclass
+class Recording:
+    """A table of named 1-D channels sampled at ``time``.
+
+    Attributes:
+      time: (N,) seconds, strictly increasing.
+      columns: name -> (N,) float array, in file order (``time`` excluded).
+      meta: sidecar metadata (model, rates, notes, ...).
+    """
+
+    time: np.ndarray
+    columns: dict[str, np.ndarray]
+    meta: dict = field(default_factory=dict)
+    source: str = "<memory>"
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name == "time":
+            return self.time
+        if name not in self.columns:
+            raise RecordingError(f"{self.source}: no column {name!r}; columns: {', '.join(self.columns)}")
+        return self.columns[name]
+
+    def __contains__(self, name: str) -> bool:
+        return name == "time" or name in self.columns
+
+    def __len__(self) -> int:
+        return self.time.size
+
+    @property
+    def rate_hz(self) -> float:
+        return float(1.0 / np.median(np.diff(self.time))) if self.time.size > 1 else float("nan")
+
+    def names(self, prefix: str) -> list[str]:
+        """Names after ``prefix.`` in column order, e.g. names("q") -> ["shoulder", "elbow"]."""
+        return [c.split(".", 1)[1] for c in self.columns if c.split(".", 1)[0] == prefix and "." in c]
+
+    def matrix(self, prefix: str, names) -> np.ndarray:
+        """(N, len(names)) stack of ``prefix.<name>`` columns."""
+        return np.column_stack([self[f"{prefix}.{n}"] for n in names])
+
+    def slice(self, t0: float, t1: float) -> "Recording":
+        """Rows with t0 <= time < t1 (a view-free copy)."""
+        m = (self.time >= t0) & (self.time < t1)
+        return Recording(self.time[m].copy(), {k: v[m].copy() for k, v in self.columns.items()},
+                         dict(self.meta), f"{self.source}[{t0:g}:{t1:g}]")
+
+    # -- files -----------------------------------------------------------------------------
+    def to_csv(self, path: str | Path, digits: int = 7):
+        """Write ``path`` (and ``<path>.json`` if meta is non-empty) atomically."""
+        path = Path(path)
+        buf = io.StringIO()
+        names = ["time", *self.columns]
+        buf.write(",".join(names) + "\n")
+        data = np.column_stack([self.time, *self.columns.values()])
+        np.savetxt(buf, data, delimiter=",", fmt=f"%.{digits}g")
+        atomic_write_text(path, buf.getvalue())
+        if self.meta:
+            atomic_write_text(path.with_suffix(".json"), json.dumps(self.meta, indent=1) + "\n")
+
+
+def read_csv(path: str | Path) -> Recording:
+    """Read a recording; raises :class:`RecordingError` naming file, row and column."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise RecordingError(f"{path}: recording not found") from None
+    except UnicodeDecodeError:
+        raise RecordingError(f"{path}: not a text (CSV) file") from None
+    rows = list(csv.reader(io.StringIO(text)))
+    rows = [r for r in rows if r and any(c.strip() for c in r)]
+    if not rows:
+        raise RecordingError(f"{path}: empty file")
+    header = [h.strip() for h in rows[0]]
+    if "time" not in header:
+        raise RecordingError(f"{path}: no 'time' column in the header (got {', '.join(header[:8])}...)")
+    dup = {h for h in header if header.count(h) > 1}
+    if dup:
+        raise RecordingError(f"{path}: repeated column(s) {sorted(dup)}")
+    n_col = len(header)
+    data = np.empty((len(rows) - 1, n_col))
+    for i, row in enumerate(rows[1:]):
+        line = i + 2
+        if len(row) != n_col:
+            raise RecordingError(f"{path}: line {line} has {len(row)} fields, the header has {n_col}")
+        for j, cell in enumerate(row):
+            try:
+                data[i, j] = float(cell)
+            except ValueError:
+                raise RecordingError(f"{path}: line {line}, column {header[j]!r}: {cell!r} is not a number") from None
+    bad = ~np.isfinite(data)
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        raise RecordingError(f"{path}: line {i + 2}, column {header[j]!r} is {data[i, j]} "
+                             f"({int(bad.sum())} non-finite value(s) in all); clean or cut the recording")
+    t = data[:, header.index("time")]
+    if t.size < 2:
+        raise RecordingError(f"{path}: needs at least 2 rows, has {t.size}")
+    dt = np.diff(t)
+    if np.any(dt <= 0):
+        i = int(np.argmax(dt <= 0))
+        raise RecordingError(f"{path}: time is not strictly increasing at line {i + 3} "
+                             f"({t[i]:g} s then {t[i + 1]:g} s)")
+    columns = {h: data[:, j].copy() for j, h in enumerate(header) if h != "time"}
+    meta = {}
+    side = path.with_suffix(".json")
+    if side.is_file():
+        try:
+            meta = json.loads(side.read_text())
+        except json.JSONDecodeError as e:
+            raise RecordingError(f"{side}: sidecar is not valid JSON: {e}") from None
+    return Recording(t.copy(), columns, meta, str(path))
+
+
+def validate(rec: Recording, joint_names, actuator_names, *, need_commands: bool = True,
+             need_pressures: bool = True, model_name: str | None = None) -> list[str]:
+    """Check a recording against a model's names; raise on errors, warn on oddities.
+
+    Returns the list of warnings issued (also emitted as :class:`RecordingWarning`).
+    """
+    src = rec.source
+    said = []
+
+    def warn(msg):
+        said.append(msg)
+        warnings.warn(msg, RecordingWarning, stacklevel=3)
+
+    if model_name and rec.meta.get("model") not in (None, model_name):
+        raise RecordingError(f"{src}: recorded with model {rec.meta['model']!r} (sidecar), "
+                             f"but checked against {model_name!r}")
+    joints, acts = set(joint_names), set(actuator_names)
+    for col in rec.columns:
+        prefix, _, name = col.partition(".")
+        if prefix in JOINT_PREFIXES and name and name not in joints:
+            raise RecordingError(f"{src}: column {col!r} names unknown joint {name!r}; joints: {', '.join(joint_names)}")
+        if prefix in ACTUATOR_PREFIXES and name and name not in acts:
+            raise RecordingError(f"{src}: column {col!r} names unknown actuator {name!r}; actuators: {', '.join(actuator_names)}")
+    missing_q = [f"q.{j}" for j in joint_names if f"q.{j}" not in rec]
+    if missing_q:
+        raise RecordingError(f"{src}: missing joint column(s) {', '.join(missing_q)}")
+    for a in actuator_names:
+        if need_commands and f"i.{a}" not in rec:
+            miss = [c for c in (f"u_a.{a}", f"u_b.{a}") if c not in rec]
+            if miss:
+                raise RecordingError(f"{src}: missing command column(s) {', '.join(miss)}: the doctor and "
+                                     "replays need the valve commands")
+        if need_pressures:
+            miss = [c for c in (f"p_a.{a}", f"p_b.{a}") if c not in rec]
+            if miss:
+                raise RecordingError(f"{src}: missing pressure column(s) {', '.join(miss)}")
+    for col, v in rec.columns.items():
+        prefix = col.split(".", 1)[0]
+        if prefix in ("p_a", "p_b"):
+            if np.all(v < 1.0e5):
+                warn(f"{src}: column {col!r} stays below 1 bar (max {v.max():.4g} Pa): gauge pressure? "
+                     "pneumasim expects absolute pressures in Pa")
+            if np.all(v < 50.0):
+                raise RecordingError(f"{src}: column {col!r} is at most {v.max():.4g}: looks like bar, "
+                                     "not Pa (absolute pressures in Pa expected)")
+        if prefix in ("u_a", "u_b") and (v.min() < -0.5 or v.max() > 10.5):
+            warn(f"{src}: column {col!r} spans {v.min():.3g}..{v.max():.3g} V, outside 0-10 V")
+        if prefix == "q" and np.max(np.abs(v)) > 2 * math.pi:
+            warn(f"{src}: column {col!r} reaches {np.max(np.abs(v)):.4g}: degrees? angles must be in rad")
+    # saturated sensors: many identical values at the extreme
+    for col, v in rec.columns.items():
+        if col.split(".", 1)[0] in ("q", "p_a", "p_b") and v.size > 20:
+            for ext in (v.max(), v.min()):
+                share = np.mean(v == ext)
+                if share > 0.05 and np.ptp(v) > 0:
+                    warn(f"{src}: column {col!r} sits at {ext:.6g} in {share:.0%} of rows: saturated sensor?")
+    gaps = np.diff(rec.time)
+    med = np.median(gaps)
+    if np.any(gaps > 3 * med):
+        i = int(np.argmax(gaps > 3 * med))
+        warn(f"{src}: gap in time of {gaps[i]:.3g} s after t = {rec.time[i]:.3f} s (median step {med:.3g} s)")
+    return said

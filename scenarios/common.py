@@ -1,0 +1,129 @@
+"""What every scenario shares: command-line options, the output folder, metrics and plots.
+
+A scenario module defines ``SUMMARY`` (one line) and ``run(ctx: Context) -> dict`` returning
+its metrics; ``python -m scenarios.<name>`` and ``pneumasim run <name>`` both go through
+:func:`main`.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import math
+import pkgutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from pneumatics.errors import PneumasimError, UnknownNameError  # noqa: E402
+from pneumatics.io import atomic_save, atomic_write_json  # noqa: E402
+
+
+@dataclass
+class Context:
+    """Where a scenario writes and how long it may take."""
+
+    name: str
+    out: Path
+    fast: bool = False
+    rerun_path: Path | None = None
+    spawn: bool = False
+    written: list[Path] = field(default_factory=list)
+
+    def rerun_logger(self, robot, recording_name: str | None = None):
+        """A Rerun logger if ``--rerun``/``--spawn`` was given, else None."""
+        if self.rerun_path is None and not self.spawn:
+            return None
+        from pneumatics.rerun_log import RerunLogger
+
+        return RerunLogger(robot, path=self.rerun_path, spawn=self.spawn,
+                           recording_name=recording_name or self.name)
+
+    def savefig(self, fig, filename: str) -> Path:
+        path = self.out / filename
+        atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight"))
+        plt.close(fig)
+        self.written.append(path)
+        return path
+
+    def save_recording(self, rec, filename: str) -> Path:
+        path = self.out / filename
+        rec.to_csv(path)
+        self.written.append(path)
+        return path
+
+
+def scenario_names() -> list[str]:
+    import scenarios
+
+    return sorted(m.name for m in pkgutil.iter_modules(scenarios.__path__)
+                  if not m.name.startswith("_") and m.name != "common")
+
+
+def load_scenario(name: str):
+    if name not in scenario_names():
+        raise UnknownNameError("scenario", name, scenario_names())
+    return importlib.import_module(f"scenarios.{name}")
+
+
+def clean_metrics(metrics: dict, name: str) -> dict:
+    out = {}
+    for k, v in metrics.items():
+        if isinstance(v, bool):
+            v = int(v)
+        if isinstance(v, (int, float)):
+            if not math.isfinite(float(v)):
+                raise PneumasimError(f"scenario {name}: metric {k!r} is {v}: not finite")
+            out[k] = float(v) if isinstance(v, float) else v
+        elif isinstance(v, str):
+            out[k] = v
+        else:
+            out[k] = float(v)  # numpy scalars
+    return out
+
+
+def run_scenario(name: str, out: str | Path | None = None, fast: bool = False,
+                 rerun: str | Path | None = None, spawn: bool = False, quiet: bool = False) -> dict:
+    """Run scenario ``name``; writes ``metrics.json`` and its plots into ``out``."""
+    module = load_scenario(name)
+    out = Path(out) if out else Path("runs") / name
+    ctx = Context(name, out, fast, Path(rerun) if rerun else None, spawn)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    metrics = clean_metrics(module.run(ctx), name)
+    metrics.setdefault("wall_seconds", round(time.perf_counter() - t0, 2))
+    atomic_write_json(out / "metrics.json", metrics)
+    if not quiet:
+        print(f"{name}: wrote {out / 'metrics.json'}" + "".join(f", {p.name}" for p in ctx.written))
+        if ctx.rerun_path:
+            print(f"{name}: Rerun recording {ctx.rerun_path}")
+        print(json.dumps(metrics, indent=1))
+    return metrics
+
+
+def add_run_options(parser: argparse.ArgumentParser):
+    parser.add_argument("--out", help="output folder (default runs/<name>/)")
+    parser.add_argument("--fast", action="store_true", help="shortened version (used by the tests)")
+    parser.add_argument("--rerun", metavar="FILE.rrd", help="log the run to a Rerun file")
+    parser.add_argument("--spawn", action="store_true", help="log the run to a live Rerun viewer")
+
+
+def main(module_name: str, argv=None):
+    """Entry point of ``python -m scenarios.<name>``."""
+    if module_name == "__main__":  # python -m scenarios.<name>
+        module_name = sys.modules["__main__"].__spec__.name
+    name = module_name.rsplit(".", 1)[-1]
+    module = load_scenario(name)
+    parser = argparse.ArgumentParser(prog=f"python -m scenarios.{name}", description=module.SUMMARY)
+    add_run_options(parser)
+    args = parser.parse_args(argv)
+    try:
+        run_scenario(name, args.out, args.fast, args.rerun, args.spawn)
+    except PneumasimError as e:
+        sys.exit(f"error: {e}")

@@ -1,0 +1,144 @@
+"""Rerun logging: a headless .rrd that Rerun itself accepts, with the documented entity paths.
+
+(``arm2`` is the session fixture of conftest.py.)"""
+from __future__ import annotations
+
+import subprocess
+import sys
+from collections import defaultdict
+
+import numpy as np
+import pytest
+
+from pneumatics.rerun_log import RerunLogger
+from pneumatics.sim import Simulation
+
+rr = pytest.importorskip("rerun")
+from rerun.chunk import RrdReader  # noqa: E402
+
+
+# The logger only reads the simulation's state; the numpy kernel spares the tests the
+# compiled kernel's start-up (JIT) time.
+KERNEL = "reference"
+
+
+def rrd_verify(path):
+    """``rerun rrd verify FILE`` (0.41), run as ``python -m rerun`` so the venv's CLI is used."""
+    return subprocess.run([sys.executable, "-m", "rerun", "rrd", "verify", str(path)],
+                          capture_output=True, text=True, timeout=60)
+
+
+def read_rrd(path):
+    """{entity path: (static rows, {time ns: value or row})} from the file, via Rerun's reader."""
+    out = defaultdict(lambda: [0, {}])
+    for chunk in RrdReader(path).stream().to_chunks():
+        entry = out[chunk.entity_path]
+        if chunk.is_static:
+            entry[0] += chunk.num_rows
+            continue
+        batch = chunk.to_record_batch()
+        times = batch.column("sim_time").cast("int64").to_numpy()
+        if "Scalars:scalars" in batch.schema.names:
+            values = [v[0] for v in batch.column("Scalars:scalars").to_pylist()]
+        else:
+            values = [v[0] for v in batch.column("Transform3D:translation").to_pylist()]
+        entry[1].update(zip(times.tolist(), values))
+    return dict(out)
+
+
+def run_arm2(robot, logger, seconds=1.0):
+    """100 Hz frames over ``seconds`` of a 1 kHz simulation; returns the logged states."""
+    sim = Simulation(robot, kernel=KERNEL)
+    sim.reset(pressure_pa=4e5)
+    sim.set_command([5, 5, 10, 0])
+    states = []
+    for _ in range(round(seconds * 100)):
+        sim.step(10)
+        logger.log_frame(sim)
+        states.append((sim.time, sim.data.qpos.copy(), sim.pressure.copy(), sim.command.copy(),
+                       sim.forces().copy(), sim.data.xpos.copy()))
+    return sim, states
+
+
+def test_one_second_of_arm2_is_a_valid_rrd(arm2, tmp_path):
+    path = tmp_path / "arm2.rrd"
+    logger = RerunLogger(arm2, path, recording_name="test")
+    logger.log_static()
+    sim, states = run_arm2(arm2, logger)
+    logger.close()
+    logger.close()  # idempotent
+
+    res = rrd_verify(path)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert path.stat().st_size > 20_000  # geometry, 2 bodies and 12 scalar channels x 100 frames
+
+    data = read_rrd(path)
+    expected = ["/world", "/world/base", "/world/upper_link", "/world/forearm",
+                "/joints/shoulder/q", "/joints/elbow/q", "/force/shoulder", "/force/elbow"]
+    expected += [f"/{k}/{a}/{c}" for k in ("pressure", "command") for a in ("shoulder", "elbow") for c in "ab"]
+    for entity in expected:
+        assert entity in data, f"{entity} missing; have {sorted(data)}"
+    # geometry: 5 visual geoms; the collision capsule (group 3) of the forearm is skipped
+    geoms = [e for e in data if e.count("/") == 3 and e.startswith("/world/")]
+    assert len(geoms) == 5, geoms
+
+    # 100 frames per channel, at sim_time, in the documented units
+    t_ns = [round(t * 1e9) for t, *_ in states]
+    q = data["/joints/elbow/q"][1]
+    assert sorted(q) == t_ns
+    for (t, qpos, p, u, f, xpos), tn in zip(states, t_ns):
+        assert q[tn] == pytest.approx(np.degrees(qpos[1]), rel=1e-9, abs=1e-9)
+        assert data["/pressure/shoulder/b"][1][tn] == pytest.approx(p[1] / 1e5, rel=1e-9)
+        assert data["/command/elbow/a"][1][tn] == pytest.approx(u[2])
+        assert data["/force/elbow"][1][tn] == pytest.approx(f[1], rel=1e-9, abs=1e-9)
+        forearm = arm2.model.body("forearm").id
+        assert data["/world/forearm"][1][tn] == pytest.approx(xpos[forearm], abs=1e-6)
+    assert data["/world/base"][0] == 1 and not data["/world/base"][1]  # welded to the world: static
+
+
+def test_small_batches_extra_channels_and_recordings(arm2, tmp_path):
+    path = tmp_path / "batches.rrd"
+    with RerunLogger(arm2, path, flush_every=7) as logger:  # 100 frames in 15 batches
+        sim = Simulation(arm2, kernel=KERNEL)
+        sim.reset(pressure_pa=3e5)
+        sim.set_command([10, 0, 0, 10])
+        for k in range(100):
+            sim.step(10)
+            logger.log_frame(sim, commands=[9, 1, 1, 9], extra={"joints/elbow/ref": float(k)})
+        t = 5.0 + np.arange(50) * 0.02  # after the simulated second
+        logger.log_recording({"time": t, "q.elbow": np.full(50, 0.5), "p_a.shoulder": np.full(50, 2.5e5),
+                              "u_b.elbow": np.full(50, 3.0), "temperature": np.ones(50)}, prefix="measured")
+        logger.log_recording({"time": t, "q.shoulder": np.zeros(50), "q.elbow": np.zeros(50)},
+                             prefix="", bodies=True)
+    res = rrd_verify(path)
+    assert res.returncode == 0, res.stdout + res.stderr
+    data = read_rrd(path)
+    assert len(data["/joints/shoulder/q"][1]) == 100 + 50
+    assert len(data["/world/forearm"][1]) == 100 + 50
+    assert sorted(data["/joints/elbow/ref"][1].values()) == list(range(100))
+    assert set(data["/command/shoulder/a"][1].values()) == {9.0}
+    assert np.allclose(list(data["/measured/joints/elbow/q"][1].values()), np.degrees(0.5))
+    assert set(data["/measured/pressure/shoulder/a"][1].values()) == {2.5}
+    assert set(data["/measured/command/elbow/b"][1].values()) == {3.0}
+    assert len(data["/measured/other/temperature"][1]) == 50
+
+
+def test_loggers_coexist_in_one_process(arm2, tmp_path):
+    a = RerunLogger(arm2, tmp_path / "a.rrd", application_id="one")
+    b = RerunLogger(arm2, tmp_path / "b.rrd", application_id="two")
+    run_arm2(arm2, a, seconds=0.2)
+    run_arm2(arm2, b, seconds=0.3)
+    a.close()
+    b.close()
+    for name, frames in (("a", 20), ("b", 30)):
+        assert rrd_verify(tmp_path / f"{name}.rrd").returncode == 0
+        assert len(read_rrd(tmp_path / f"{name}.rrd")["/joints/elbow/q"][1]) == frames
+    with pytest.raises(RuntimeError):
+        a.log_frame(Simulation(arm2, kernel=KERNEL))
+
+
+def test_recording_without_time_is_rejected(arm2):
+    logger = RerunLogger(arm2)  # no sink: in-memory
+    with pytest.raises(ValueError, match="time"):
+        logger.log_recording({"q.elbow": np.zeros(3)})
+    logger.close()
