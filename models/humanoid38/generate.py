@@ -1,53 +1,63 @@
 """Generate the humanoid38 model: ``humanoid38.xml`` (MJCF) and ``fluid.toml`` (fluid power).
 
-humanoid38 is a fixed-base, child-sized (1.33 m, 28 kg) humanoid with 38 pneumatic joints in
+humanoid38 is a fixed-base, child-sized (1.34 m, 28 kg) humanoid with 38 pneumatic joints in
 the spirit of Kokoro's Diego-San (paper 002 §VI: 38 DOFs without the hands, one double-acting
 cylinder or vane per joint, two valves and two pressure sensors per actuator, 76 controls).
-This script writes both files, and the joint table of ``README.md``, from the tables below, so
-every number is derived and reproducible (``python -m models.humanoid38.generate``).
+The paper gives no dimensions, so everything here is a plausible design derived from a few
+stated rules.  This script writes both files, and the joint table of ``README.md``, from the
+tables below, so every number is derived and reproducible
+(``python -m models.humanoid38.generate``; random draws come from ``SEED``).
 
 What is derived, in order:
 
-1. **Link masses** -- a 28 kg total split over body segments by fractions close to a child's
+1. **Link masses** -- a 28 kg total split over body segments by fractions close to human ones
    (Winter's adult table, with more mass in the limbs, where a pneumatic robot carries its
    cylinders, and less in the trunk), then over the links of each segment.
 2. **Link inertias** -- each link's mass spread over a solid box, cylinder or sphere of the
    link's size, about a centre of mass given per link.
 3. **Cylinder geometry** -- a *tendon* joint is driven by a cylinder pinned to the parent link
-   at distance ``a`` from the joint axis and to a lever of length ``b`` on the child link; the
-   lever is placed so that it is perpendicular to the parent's pin direction at mid-range, so
-   the pin-to-pin length grows monotonically over the whole range (chamber ``a`` extends the
+   at distance ``a`` from the joint axis and to a lever of length ``b`` on the child link.  The
+   pin-to-pin length grows monotonically over the whole range (chamber ``a`` extends the
    cylinder and turns the joint positive) and the moment arm ``a b sin(phi) / L`` never
-   vanishes.  A *gear* joint has a constant moment arm; a *rotary* joint a vane.
+   vanishes, because the lever angle phi stays inside (0.2, pi - 0.2); the lever's phase is
+   chosen to minimise the force the joint needs (step 4).  A *gear* joint has a constant moment
+   arm; a *rotary* joint a vane.
 4. **Loads** -- MuJoCo computes, over random poses inside the joint ranges, each joint's
-   gravity torque and its diagonal inertia; a joint needs ``max(1.5 x gravity, 20 rad/s^2 x
+   gravity torque and its diagonal inertia; a joint needs ``max(1.5 x gravity, 10 rad/s^2 x
    inertia, 0.1 N m)``, divided by the moment arm at that pose (MuJoCo's actuator length,
-   differentiated) for a cylinder.
+   differentiated) for a cylinder.  In the home pose it also needs an air spring (both
+   chambers sealed at 4 bar) that holds the gravity load within 4 deg and is 1.5 times stiffer
+   than gravity's destabilising slope (inverted pendulums: waist, neck).
 5. **Actuator sizes** -- the smallest ISO bore (with its ISO rod) whose rod-side annulus makes
-   that force at 6 bar (7 bar supply, 1 bar room); a vane's displacement is the torque over
-   6 bar.  Strokes (vane travels) cover the joint's travel plus 4 mm (0.1 rad) and are rounded
-   up to 5 mm (0.05 rad); the piston sits that margin away from either end stop over the whole
-   range.  Dead volumes (ports and tubes) are 15 % of the swept volume, kept in 0.5-5 cm^3.
+   that force at 6 bar (7 bar supply, 1 bar room) and whose air spring is stiff enough; a
+   vane's displacement likewise.  Strokes (vane travels) cover the joint's travel plus 4 mm
+   (0.1 rad) and are rounded up to 5 mm (0.05 rad); the piston clears both end stops by the same
+   margin over the whole range.  Dead volumes (port and tube) are 0.5 cm^3 + 10 % of the swept
+   volume, kept in 0.5-5 cm^3.
 6. **Joint damping and armature** -- seal friction grows with the actuator (0.5 % of its
    6-bar torque per rad/s, kept in 0.05-0.5 N m s/rad); armature is the steel rod and
    aluminium piston reflected through the mean moment arm (a vane: 1e-4 kg m^2), kept in
    1e-4-1e-3 kg m^2.
-7. **Valves** -- the valve's effective area grows with the square root of the actuator's
-   displacement per radian, anchored at arm2's shoulder (9.4 cm^3/rad -> 8e-7 m^2 supply,
-   9e-7 m^2 exhaust) and kept in 4e-7-2e-6 m^2; then every one of the 76 valves gets its own
-   draw (seed ``SEED``): areas x U(0.85, 1.15) each, null 5 V + U(-0.15, 0.15) V, null leak
-   fraction U(0.015, 0.03), dead band U(0.1, 0.25) V, opening exponent U(1.1, 1.5).
+7. **Valves** -- the valve's effective area scales with its chamber's volume at mid-stroke,
+   anchored at arm2's shoulder (15 cm^3 -> 8e-7 m^2 supply, 9e-7 m^2 exhaust), so every
+   chamber fills with about arm2's time constant, kept in 1.5e-7-2e-6 m^2; then every one of
+   the 76 valves gets its own draw: both areas x U(0.85, 1.15) (one factor per valve), null
+   5 V + U(-0.15, 0.15) V, null-leak fraction U(0.015, 0.03), dead band U(0.1, 0.25) V,
+   opening exponent U(1.1, 1.5).
+8. **Sensors** -- arm2's noise after averaging, times sqrt(500/200): the humanoid's DAQ
+   averages 200 samples per period instead of 500 (paper 002 §II).
 
 Conventions: x forward, y left, z up; at q = 0 the robot stands straight with the arms
 hanging and the palms facing the thighs, and every body frame is aligned with the world.  The
-pelvis is welded to the world at 0.75 m (the robot stands on a stand).  Every body has exactly
-one hinge at its origin.  Sagittal joints turn positive in flexion (waist and neck bend
-forward, head nods down, arm and thigh swing forward, elbow and knee bend, ankle dorsiflexes,
-toes curl down, jaw opens); limb roll joints are positive in abduction (ankle: eversion,
-clavicle: elevation), limb yaw joints in external rotation (forearm: supination, wrist yaw:
-radial deviation); trunk and neck roll and yaw follow the right-hand rule about x and z.  The
-right side mirrors the left (positions y -> -y, axes (x, y, z) -> (-x, y, -z)), so a joint
-and its twin have the same range, the same sign convention and the same actuator.
+pelvis is welded to the world at 0.75 m (the robot stands on a stand).  Every body but the
+pelvis has exactly one hinge, at its origin.  Sagittal joints turn positive in flexion (waist
+and neck bend forward, head nods down, arm and thigh swing forward, elbow and knee bend,
+ankle dorsiflexes, toes curl down, jaw opens); limb roll joints are positive in abduction
+(ankle: eversion, clavicle: elevation), limb yaw joints in external rotation (forearm:
+supination, wrist yaw: radial deviation); trunk and neck roll and yaw follow the right-hand
+rule about x and z.  The right side mirrors the left (positions y -> -y, axes (x, y, z) ->
+(-x, y, -z)), so a joint and its twin have the same range, the same sign convention and the
+same actuator.
 """
 from __future__ import annotations
 
@@ -289,7 +299,7 @@ EXCLUDE = (("pelvis", "torso"), ("pelvis", "waist_pitch_link"), ("pelvis", "left
            ("pelvis", "right_thigh"), ("left_upper_arm", "left_forearm_distal"),
            ("right_upper_arm", "right_forearm_distal"), ("left_shank", "left_foot"),
            ("right_shank", "right_foot"), ("left_forearm_distal", "left_hand"),
-           ("right_forearm_distal", "right_hand"), ("left_thigh", "right_thigh"))
+           ("right_forearm_distal", "right_hand"))
 PELVIS_HEIGHT = 0.75
 PELVIS = dict(mass_share=0.33, com=(-0.005, 0, 0), shape=("box", 0.075, 0.11, 0.06),
               geoms=(_box((-0.005, 0, 0), (0.075, 0.11, 0.06), collide=True),))
@@ -892,24 +902,29 @@ TABLE_BEGIN, TABLE_END = "<!-- joint table: generated -->", "<!-- end of joint t
 
 
 def readme_table(sizes: list[Sizing], dyn: dict[str, JointDyn]) -> str:
-    rows = ["| # | joint | range [deg] | home [deg] | actuator | transmission | size | stroke / travel | "
-            "6-bar torque [N m] | worst gravity [N m] | damping | armature |",
+    rows = ["| # | joint | range [°] | home [°] | actuator | transmission | size | stroke / travel "
+            "| torque at 6 bar [N·m] | worst gravity [N·m] | damping | armature |",
             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for i, s in enumerate(sizes):
         link = s.link
         lo, hi = link.range_deg
         if s.kind == "rotary":
-            act, trn, size = "rotary vane", "joint, gear 1", f"D = {s.displacement * 1e6:.3g} cm³/rad"
-            stroke = f"{math.degrees(s.stroke):.0f}°"
-        elif s.transmission == "joint":
-            act, trn = "cylinder", f"joint, r = {1e3 * s.moment_mean:.0f} mm"
-            size, stroke = f"Ø{s.bore_mm}/{s.rod_mm} mm", f"{1e3 * s.stroke:.0f} mm"
+            act, trn = "rotary vane", "joint, gear 1"
+            size, stroke = f"D = {s.displacement * 1e6:.3g} cm³/rad", f"{math.degrees(s.stroke):.0f}°"
+            torque = f"{s.capacity:.3g}"
         else:
-            act, trn = "cylinder", f"pins, r = {1e3 * s.moment_min:.0f}–{1e3 * s.extras['moment_max']:.0f} mm"
             size, stroke = f"Ø{s.bore_mm}/{s.rod_mm} mm", f"{1e3 * s.stroke:.0f} mm"
+            force = s.area_b * DP_PA  # the weaker (rod) side
+            if s.transmission == "joint":
+                act, trn = "cylinder", f"joint, r = {1e3 * s.moment_mean:.0f} mm"
+                torque = f"{force * s.moment_mean:.3g}"
+            else:
+                act = "cylinder"
+                trn = f"pins, r = {1e3 * s.moment_min:.0f}–{1e3 * s.extras['moment_max']:.0f} mm"
+                torque = f"{force * s.moment_min:.3g}–{force * s.extras['moment_max']:.3g}"
         d = dyn[link.joint]
-        rows.append(f"| {i} | `{link.joint}` | {lo:g} … {hi:g} | {link.home_deg:g} | {act} | {trn} | {size} | "
-                    f"{stroke} | {s.capacity:.3g} | {s.tau_gravity:.2g} | {d.damping:g} | {d.armature:.2g} |")
+        rows.append(f"| {i} | `{link.joint}` | {lo:g} … {hi:g} | {link.home_deg:g} | {act} | {trn} | {size} "
+                    f"| {stroke} | {torque} | {s.tau_gravity:.2g} | {d.damping:g} | {d.armature:.2g} |")
     return "\n".join(rows)
 
 

@@ -1,0 +1,88 @@
+"""The compiled fast path against the readable numpy reference, to round-off."""
+import numpy as np
+import pytest
+
+from pneumatics import chamber, kernel
+from pneumatics.robot import load_robot
+from pneumatics.sim import Simulation
+from pneumatics.tables import valve_areas_table
+
+import models
+
+
+@pytest.mark.parametrize("name", models.available())
+def test_one_step_matches_the_reference_on_random_states(name, rng):
+    robot = load_robot(name)
+    tab = robot.tables
+    act, ch, glob = kernel.pack(tab, np.arange(len(robot.actuator_names)), 1e-3)
+    for _ in range(200):
+        p = rng.uniform(0.3e5, 12e5, tab.n_chambers)
+        u = rng.uniform(0, 10, tab.n_chambers)
+        prev = tab.length_zero + rng.uniform(0, 1, tab.stroke.size) * tab.stroke
+        length = prev + rng.normal(0, 0.003, prev.size) * tab.stroke
+        ref = chamber.fluid_step(tab, p, u, prev, length, 1e-3)
+        a_s, a_e = valve_areas_table(tab, u)
+        fast = p.copy()
+        ctrl = np.zeros(len(robot.actuator_names))
+        kernel.fluid_step_fast(fast, np.column_stack([a_s, a_e]), prev.copy(), length, ctrl, act, ch, glob)
+        np.testing.assert_allclose(fast, ref, rtol=1e-11, atol=0)
+        np.testing.assert_allclose(ctrl, chamber.actuator_force(tab, ref), rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", models.available())
+def test_simulation_fast_and_reference_agree(name, rng):
+    robot = load_robot(name)
+    runs = []
+    commands = rng.uniform(0, 10, (20, robot.tables.n_chambers))
+    for kern in ("fast", "reference"):
+        sim = Simulation(robot, kernel=kern)
+        sim.reset(pressure_pa=4e5)
+        trace = []
+        for u in commands:
+            sim.set_command(u)
+            sim.step(10)
+            trace.append(np.concatenate([sim.pressure, sim.data.qpos]))
+        runs.append(np.array(trace))
+    np.testing.assert_allclose(runs[0], runs[1], rtol=1e-8, atol=1e-9)
+
+
+def test_static_transient_fast_matches_reference():
+    robot = load_robot("arm2")
+    tab = robot.tables
+    _, _, glob = kernel.pack(tab, np.arange(2), 1e-3)
+    u = np.linspace(0, 10, 21)
+    vol = np.full(u.size, 1e-5)
+    t, ref = chamber.static_transient(tab.valve[2][None], vol, 1e5, u, 0.5, 1e-3, tab.gas, tab.supply_pa, tab.room_pa)
+    a_s, a_e = valve_areas_table(tab, u) if False else chamber.valve_areas(u, tab.valve[2][None])
+    out = np.empty_like(ref)
+    kernel.static_transient_fast(np.full(u.size, 1e5), vol, a_s, a_e, glob, 1e-3, out)
+    np.testing.assert_allclose(out, ref, rtol=1e-11)
+
+
+def test_step_refinement_is_rare_at_1ms(rng):
+    """The adaptive sub-steps are a safety net, not the normal path: count them on arm2."""
+    robot = load_robot("arm2")
+    tab = robot.tables
+    sim = Simulation(robot, kernel="reference")
+    sim.reset(pressure_pa=4e5)
+    calls = {"steps": 0, "refined": 0}
+    original = chamber.integrate
+
+    def counting(p, volume, volume_rate, a_s, a_e, gas, ps, pr, dt):
+        calls["steps"] += 1
+        one = []
+        for i in range(p.size):
+            q, err = chamber.ros2_step(p[i:i + 1], dt, lambda y: chamber.pressure_rate(
+                y, volume[i:i + 1], volume_rate[i:i + 1], a_s[i:i + 1], a_e[i:i + 1], gas, ps, pr))
+            one.append(bool(np.abs(q - p[i]) > chamber.MAX_REL_CHANGE * p[i] or err > chamber.ERR_TOL * p[i]))
+        calls["refined"] += sum(one)
+        return original(p, volume, volume_rate, a_s, a_e, gas, ps, pr, dt)
+
+    chamber.integrate = counting
+    try:
+        for _ in range(30):
+            sim.set_command(rng.uniform(0, 10, tab.n_chambers))
+            sim.step(10)
+    finally:
+        chamber.integrate = original
+    assert calls["refined"] / (calls["steps"] * tab.n_chambers) < 0.05
