@@ -33,7 +33,7 @@ Timeline ``sim_time``: a duration timeline, in seconds of simulated (or recorded
 ``force/<actuator>``               actuator force, N (N m for rotary vanes): ``Simulation.forces``
 =================================  ===========================================================
 
-All scalars are ``Scalars`` with a static ``SeriesLines`` name carrying the unit.
+All scalars are ``Scalars``; the plot legends show entity paths, the plot titles the units.
 :meth:`RerunLogger.log_recording` writes the same tree under ``<prefix>/`` (``measured/joints/
 <joint>/q`` ...) plus ``joints/<joint>/qd`` (deg/s or m/s), ``joints/<joint>/ref`` (deg or m),
 ``joints/<joint>/tau`` (N m), ``command/<actuator>/i`` (A) and ``other/<column>`` (anything
@@ -43,12 +43,15 @@ overlay the simulated and every prefixed tree.
 
 Speed
 -----
-Frames are buffered and sent every ``flush_every`` frames (or after ``max_latency_s`` of wall
-time, so a live viewer stays current) as **one** Arrow record batch covering every entity
-(``rr.send_record_batch`` with ``rerun:entity_path`` column metadata; Rerun splits it into one
-chunk per entity).  That costs a few microseconds per frame, far less than one ``rr.log`` per
-entity and frame (~70 us each) or one ``rr.send_columns`` per entity and flush (~200 us each).
-:func:`measure_overhead` times it against the bare simulation.
+Frames are buffered (a few array copies, ~2 us per frame) and sent every ``flush_every``
+frames, or after ``max_latency_s`` of wall time so a live viewer stays current, as **one**
+Arrow record batch covering every entity (``rr.send_record_batch`` with ``rerun:entity_path``
+column metadata; Rerun splits it into one chunk per entity).  Rerun's cost is then ~70 us per
+chunk plus ~0.2-0.3 us per entity and frame (most of it the file encoder, LZ4, in a background
+thread), far less than one ``rr.log`` per entity and frame (~70 us each) or one
+``rr.send_columns`` per entity and flush (~200 us each, in Python).  Forces, being affine in
+the pressures, are computed per batch rather than per frame.  :func:`measure_overhead` (``python
+-m pneumatics.rerun_log [model ...]``) times logging against the bare simulation.
 """
 from __future__ import annotations
 
@@ -57,6 +60,7 @@ import shutil
 import sys
 import time as _time
 import uuid
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -126,10 +130,9 @@ class RerunLogger:
       application_id, recording_name: shown in the viewer.
       flush_every: frames buffered before they are sent in one batch.
       max_latency_s: also send when the oldest buffered frame is this old (wall time), so a
-        live viewer keeps up and Rerun's encoder (a background thread) works while the
-        simulation runs instead of all at ``close()``.  Sending has a fixed cost per entity
-        (~30 us), so the interval stretches to 20 times the last send's duration if that is
-        longer: sending takes under ~5 % of the wall time.  ``math.inf``: by count only.
+        live viewer keeps up; default 0.1 s with ``spawn``, else none (``math.inf``: sending
+        by count only costs least).  Every send costs ~70 us per entity (chunk) in all, so
+        the interval stretches to 20 times the last send's duration if that is longer.
 
     With neither ``path`` nor ``spawn`` the data stays in Rerun's in-memory buffer
     (``logger.recording`` is the ``rr.RecordingStream``: attach a sink yourself).
@@ -138,12 +141,14 @@ class RerunLogger:
 
     def __init__(self, robot: Robot, path: str | Path | None = None, spawn: bool = False,
                  application_id: str = "pneumasim", recording_name: str | None = None, *,
-                 flush_every: int = 2000, max_latency_s: float = 0.1, port: int = 9876):
+                 flush_every: int = 2000, max_latency_s: float | None = None, port: int = 9876):
         self.robot = robot
         self.model = robot.model
         self.path = Path(path) if path is not None else None
         self.flush_every = max(1, int(flush_every))
-        self.max_latency_s = None if max_latency_s in (None, math.inf) else float(max_latency_s)
+        if max_latency_s is None:
+            max_latency_s = 0.1 if spawn else math.inf
+        self.max_latency_s = None if max_latency_s == math.inf else float(max_latency_s)
         self._latency = self.max_latency_s  # stretched by flush() when sending is slow
         self._flush_due = math.inf
         self.recording = rr.RecordingStream(application_id, recording_id=uuid.uuid4())
@@ -172,25 +177,21 @@ class RerunLogger:
         weld = np.asarray(m.body_weldid)
         self._moving = np.array([b for b in range(1, m.nbody) if weld[b] != 0], int)
         self._fixed = np.array([b for b in range(1, m.nbody) if weld[b] == 0], int)
-        # scalar channels of a frame, in buffer order
         jt = [int(m.jnt_type[m.joint(j).id]) for j in robot.joint_names]
         self._qadr = robot.qpos_index
         self._qscale = np.array([180.0 / math.pi if t == _HINGE else 1.0 for t in jt])
-        self._qunit = ["deg" if t == _HINGE else "m" for t in jt]
         acts = robot.actuator_names
         chambers = robot.chamber_names
-        self._channels: list[tuple[str, str]] = (
-            [(f"joints/{_part(j)}/q", f"{j} q [{u}]") for j, u in zip(robot.joint_names, self._qunit)]
-            + [(f"pressure/{_part(a)}/{c}", f"{a} p_{c} [bar]") for a, c in chambers]
-            + [(f"command/{_part(a)}/{c}", f"{a} u_{c} [V]") for a, c in chambers]
-            + [(f"force/{_part(a)}", f"{a} force [N]") for a in acts])
-        nq, nch, na = len(robot.joint_names), len(chambers), len(acts)
-        self._slices = (slice(0, nq), slice(nq, nq + nch), slice(nq + nch, nq + 2 * nch),
-                        slice(nq + 2 * nch, nq + 2 * nch + na))
+        self._channels: list[str] = (  # entity paths of the scalars, in the order of flush()
+            [f"joints/{_part(j)}/q" for j in robot.joint_names]
+            + [f"pressure/{_part(a)}/{c}" for a, c in chambers]
+            + [f"command/{_part(a)}/{c}" for a, c in chambers]
+            + [f"force/{_part(a)}" for a in acts])
+        nch, na = len(chambers), len(acts)
         fields = [_TIME_FIELD]
         for b in self._moving:
             fields += _transform_fields("/" + self.body_paths[b])
-        fields += [_scalar_field("/" + p) for p, _ in self._channels]
+        fields += [_scalar_field("/" + p) for p in self._channels]
         self._schema = pa.schema(fields)
         # frame buffer: whole MuJoCo arrays are copied per frame (cheapest), selected at flush
         cap, m = self.flush_every, self.model
@@ -203,6 +204,7 @@ class RerunLogger:
         self._f = np.empty((cap, na))
         self._affine = None  # (M, c) with forces = p @ M.T + c, found at the first frame
         self._first = True
+        self._sim = None  # the simulation of the current batch (to re-check the affine law)
         self._data = self._views = None
         self._n = 0
         self._extra_keys: list[str] = []
@@ -210,7 +212,7 @@ class RerunLogger:
 
     # -- static ---------------------------------------------------------------------------
     def log_static(self):
-        """Geometry of every geom, poses of bodies welded to the world, plot names, layout.
+        """Geometry of every geom, poses of bodies welded to the world, the default layout.
         Called by the first :meth:`log_frame` if not called before; later calls do nothing."""
         if self._static_done:
             return
@@ -225,8 +227,6 @@ class RerunLogger:
         for g, path, shape in self._geoms():
             rec.log(path, rr.Transform3D(translation=m.geom_pos[g], quaternion=_xyzw(m.geom_quat[g])), shape,
                     static=True)
-        for path, name in self._channels:
-            rec.log(path, rr.SeriesLines(names=name), static=True)
         self._send_blueprint()
 
     def _geoms(self):
@@ -306,6 +306,7 @@ class RerunLogger:
             if self._first:
                 self._first = False
                 self._affine = _affine_forces(sim)
+            self._sim = sim
             if self._latency is not None:
                 self._flush_due = _time.perf_counter() + self._latency
         elif self._latency is not None and not i & 15 and _time.perf_counter() > self._flush_due:
@@ -336,8 +337,6 @@ class RerunLogger:
         if new:
             self._extra_keys += new
             self._extra = np.hstack([self._extra, np.full((self._extra.shape[0], len(new)), np.nan)])
-            for k in new:
-                self.recording.log(k, rr.SeriesLines(names=k), static=True)
         row = self._extra[i]
         row[:] = np.nan
         for j, k in enumerate(self._extra_keys):
@@ -353,16 +352,24 @@ class RerunLogger:
         t0 = _time.perf_counter()
         cols = [pa.array(_ns(self._t[:n]), pa.duration("ns"))]
         if self._moving.size:  # one float32 Arrow buffer each for positions and quaternions
-            pos = pa.array(self._xpos[:n, self._moving].transpose(1, 0, 2).astype(np.float32).ravel())
-            quat = pa.array(self._xquat[:n, self._moving][..., [1, 2, 3, 0]].transpose(1, 0, 2)
-                            .astype(np.float32).ravel())
+            nb = self._moving.size
+            pos = np.empty((nb, n, 3), np.float32)  # (body, frame, xyz)
+            pos[...] = self._xpos[:n, self._moving].transpose(1, 0, 2)
+            wxyz = self._xquat[:n, self._moving].transpose(1, 0, 2)
+            quat = np.empty((nb, n, 4), np.float32)  # (body, frame, xyzw)
+            quat[..., :3] = wxyz[..., 1:]
+            quat[..., 3] = wxyz[..., 0]
+            pos, quat = pa.array(pos.ravel()), pa.array(quat.ravel())
             for k in range(self._moving.size):  # zero-copy slices, one per body
                 cols.append(pa.FixedSizeListArray.from_arrays(pos.slice(3 * n * k, 3 * n), 3))
                 cols.append(pa.FixedSizeListArray.from_arrays(quat.slice(4 * n * k, 4 * n), 4))
         p = self._p[:n]
-        if self._affine is not None:
+        if self._affine is not None and self._affine_holds():
             mat, c = self._affine
             f = p @ mat.T + c
+        elif self._affine is not None:  # it held at the first frame only: forces of this batch unknown
+            self._affine = None
+            f = np.full((n, self._f.shape[1]), np.nan)
         else:
             f = self._f[:n]
         vals = np.concatenate([(self._qpos[:n, self._qadr] * self._qscale).T, p.T / PA_PER_BAR,
@@ -377,6 +384,19 @@ class RerunLogger:
         self.recording.send_record_batch(pa.RecordBatch.from_arrays(cols, schema=schema))
         if self.max_latency_s is not None:
             self._latency = max(self.max_latency_s, 20.0 * (_time.perf_counter() - t0))
+
+    def _affine_holds(self) -> bool:
+        """Does the affine force law found at the first frame still give ``sim.forces()``?"""
+        sim = self._sim
+        if sim is None:
+            return True
+        mat, c = self._affine
+        expect, got = mat @ sim.pressure + c, np.asarray(sim.forces(), float)
+        if np.allclose(got, expect, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(expect).max(initial=0.0))):
+            return True
+        warnings.warn("Simulation.forces() is no longer affine in the pressures; forces of the "
+                      "current batch are logged as NaN and from now on every frame", stacklevel=3)
+        return False
 
     # -- whole recordings -------------------------------------------------------------------
     def log_recording(self, recording_table, prefix: str = "measured", *, bodies: bool = False):
@@ -398,7 +418,7 @@ class RerunLogger:
             raise ValueError(f"recording has no 'time' column; columns: {', '.join(names)}")
         t = np.asarray(recording_table["time"], float)
         pre = f"{prefix.strip('/')}/" if prefix and prefix.strip("/") else ""
-        joint_unit = dict(zip(self.robot.joint_names, zip(self._qscale, self._qunit)))
+        joint_scale = dict(zip(self.robot.joint_names, self._qscale))
         fields, cols = [_TIME_FIELD], [pa.array(_ns(t), pa.duration("ns"))]
         for col in names:
             if col == "time":
@@ -406,11 +426,9 @@ class RerunLogger:
             x = np.asarray(recording_table[col], float)
             if x.shape != t.shape:
                 raise ValueError(f"recording column {col!r} has shape {x.shape}, 'time' has {t.shape}")
-            path, label, scale = self._recording_entity(col, joint_unit)
-            path = pre + path
-            fields.append(_scalar_field("/" + path))
+            path, scale = self._recording_entity(col, joint_scale)
+            fields.append(_scalar_field("/" + pre + path))
             cols.append(pa.array(x * scale))
-            self.recording.log(path, rr.SeriesLines(names=f"{pre}{label}"), static=True)
         if len(fields) > 1:
             self.recording.send_record_batch(pa.RecordBatch.from_arrays(cols, schema=pa.schema(fields)))
         if bodies:
@@ -420,25 +438,24 @@ class RerunLogger:
             self._prefixes.append(key)
             self._send_blueprint()
 
-    def _recording_entity(self, col: str, joint_unit) -> tuple[str, str, float]:
-        """(entity path without prefix, series name, scale) of a recording column."""
+    def _recording_entity(self, col: str, joint_scale) -> tuple[str, float]:
+        """(entity path without prefix, scale to the logged unit) of a recording column."""
         kind, _, name = col.partition(".")
         if name:
             n = _part(name)
-            if kind in ("q", "qd", "ref") and name in joint_unit:
-                scale, unit = joint_unit[name]
-                return f"joints/{n}/{kind}", f"{name} {kind} [{unit}{'/s' if kind == 'qd' else ''}]", scale
+            if kind in ("q", "qd", "ref") and name in joint_scale:
+                return f"joints/{n}/{kind}", joint_scale[name]
             if kind == "tau":
-                return f"joints/{n}/tau", f"{name} tau [N m]", 1.0
+                return f"joints/{n}/tau", 1.0
             if kind in ("p_a", "p_b"):
-                return f"pressure/{n}/{kind[-1]}", f"{name} {kind} [bar]", 1 / PA_PER_BAR
+                return f"pressure/{n}/{kind[-1]}", 1 / PA_PER_BAR
             if kind in ("u_a", "u_b"):
-                return f"command/{n}/{kind[-1]}", f"{name} {kind} [V]", 1.0
+                return f"command/{n}/{kind[-1]}", 1.0
             if kind == "i":
-                return f"command/{n}/i", f"{name} i [A]", 1.0
+                return f"command/{n}/i", 1.0
             if kind == "force":
-                return f"force/{n}", f"{name} force [N]", 1.0
-        return f"other/{_part(col)}", col, 1.0
+                return f"force/{n}", 1.0
+        return f"other/{_part(col)}", 1.0
 
     def _log_recorded_bodies(self, table, t):
         m = self.model
@@ -499,10 +516,16 @@ def _column_names(table) -> list[str]:
 def _affine_forces(sim):
     """(M, c) with ``sim.forces() == M @ sim.pressure + c`` for every pressure, or ``None``.
 
-    The cylinder force is affine in the chamber pressures, so a logger can compute it for a
-    whole batch at flush time instead of calling ``sim.forces()`` every frame.  Checked on
-    random pressures (restored afterwards); ``None`` (per-frame calls) if it does not hold.
+    The cylinder force of :meth:`Simulation.forces` is affine in the chamber pressures (and
+    depends on nothing else), so a logger can compute it for a whole batch at flush time
+    instead of calling ``sim.forces()`` every frame.  Only for that very method (a subclass
+    that overrides it may depend on more than the pressures), probed and checked on random
+    pressures (restored afterwards); ``None`` (per-frame calls) otherwise.
     """
+    from .sim import Simulation
+
+    if getattr(type(sim), "forces", None) is not Simulation.forces:
+        return None
     p0 = sim.pressure.copy()
     try:
         n = p0.size
@@ -517,7 +540,8 @@ def _affine_forces(sim):
         for _ in range(2):
             sim.pressure[:] = rng.uniform(0.5e5, 2e7, n)
             expect = mat @ sim.pressure + c
-            if not np.allclose(sim.forces(), expect, rtol=1e-9, atol=1e-9 * np.abs(expect).max()):
+            if not np.allclose(sim.forces(), expect, rtol=1e-9,
+                               atol=1e-9 * max(1.0, np.abs(expect).max(initial=0.0))):
                 return None
         return mat, c
     except Exception:

@@ -40,8 +40,9 @@ def read_rrd(path):
         times = batch.column("sim_time").cast("int64").to_numpy()
         if "Scalars:scalars" in batch.schema.names:
             values = [v[0] for v in batch.column("Scalars:scalars").to_pylist()]
-        else:
-            values = [v[0] for v in batch.column("Transform3D:translation").to_pylist()]
+        else:  # translation and quaternion (x, y, z, w) of a body
+            values = [(p[0], q[0]) for p, q in zip(batch.column("Transform3D:translation").to_pylist(),
+                                                    batch.column("Transform3D:quaternion").to_pylist())]
         entry[1].update(zip(times.tolist(), values))
     return dict(out)
 
@@ -56,7 +57,7 @@ def run_arm2(robot, logger, seconds=1.0):
         sim.step(10)
         logger.log_frame(sim)
         states.append((sim.time, sim.data.qpos.copy(), sim.pressure.copy(), sim.command.copy(),
-                       sim.forces().copy(), sim.data.xpos.copy()))
+                       sim.forces().copy(), sim.data.xpos.copy(), sim.data.xquat.copy()))
     return sim, states
 
 
@@ -86,13 +87,15 @@ def test_one_second_of_arm2_is_a_valid_rrd(arm2, tmp_path):
     t_ns = [round(t * 1e9) for t, *_ in states]
     q = data["/joints/elbow/q"][1]
     assert sorted(q) == t_ns
-    for (t, qpos, p, u, f, xpos), tn in zip(states, t_ns):
+    forearm = arm2.model.body("forearm").id
+    for (t, qpos, p, u, f, xpos, xquat), tn in zip(states, t_ns):
         assert q[tn] == pytest.approx(np.degrees(qpos[1]), rel=1e-9, abs=1e-9)
         assert data["/pressure/shoulder/b"][1][tn] == pytest.approx(p[1] / 1e5, rel=1e-9)
         assert data["/command/elbow/a"][1][tn] == pytest.approx(u[2])
         assert data["/force/elbow"][1][tn] == pytest.approx(f[1], rel=1e-9, abs=1e-9)
-        forearm = arm2.model.body("forearm").id
-        assert data["/world/forearm"][1][tn] == pytest.approx(xpos[forearm], abs=1e-6)
+        translation, quaternion = data["/world/forearm"][1][tn]
+        assert translation == pytest.approx(xpos[forearm], abs=1e-6)
+        assert quaternion == pytest.approx(xquat[forearm][[1, 2, 3, 0]], abs=1e-6)  # MuJoCo's w last
     assert data["/world/base"][0] == 1 and not data["/world/base"][1]  # welded to the world: static
 
 
@@ -142,3 +145,56 @@ def test_recording_without_time_is_rejected(arm2):
     with pytest.raises(ValueError, match="time"):
         logger.log_recording({"q.elbow": np.zeros(3)})
     logger.close()
+
+
+def test_geometry_of_every_geom_type(tmp_path):
+    """Planes, spheres, ellipsoids, meshes, capsules; collision and invisible geoms skipped."""
+    import types
+
+    import mujoco
+
+    xml = """<mujoco><asset><mesh name="tet" vertex="0 0 0 1 0 0 0 1 0 0 0 1"/>
+      <material name="red" rgba="1 0 0 1"/></asset>
+      <worldbody><geom name="floor" type="plane" size="0 0 1"/>
+        <body name="a" pos="0 0 1"><freejoint/><geom type="sphere" size=".1" material="red"/>
+          <geom type="ellipsoid" size=".1 .2 .3"/><geom type="mesh" mesh="tet"/>
+          <geom type="box" size=".1 .1 .1" group="3"/>
+          <body><joint name="s" type="slide"/><geom type="capsule" size=".05 .2" rgba="0 1 0 .5"/>
+            <geom type="cylinder" size=".05 .2" rgba="0 0 1 0"/></body></body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    robot = types.SimpleNamespace(model=model, joint_names=["s"], actuator_names=[], chamber_names=[],
+                                  qpos_index=np.array([7]))
+    data = mujoco.MjData(model)
+    sim = types.SimpleNamespace(data=data, pressure=np.zeros(0), command=np.zeros(0), forces=lambda: np.zeros(0))
+    path = tmp_path / "geoms.rrd"
+    with RerunLogger(robot, path) as logger:
+        kinds = {p: type(shape).__name__ for _, p, shape in logger._geoms()}
+        for _ in range(20):
+            mujoco.mj_step(model, data)
+            logger.log_frame(sim)
+    assert kinds == {"world/world/floor": "Boxes3D", "world/a/geom1": "Ellipsoids3D",
+                     "world/a/geom2": "Ellipsoids3D", "world/a/geom3": "Mesh3D", "world/body2/geom5": "Capsules3D"}
+    assert rrd_verify(path).returncode == 0
+    data_ = read_rrd(path)
+    assert len(data_["/world/a"][1]) == 20 and len(data_["/world/body2"][1]) == 20
+    assert len(data_["/joints/s/q"][1]) == 20
+
+
+def test_forces_of_an_overridden_method_are_logged_every_frame(arm2, tmp_path):
+    class Braked(Simulation):  # forces that depend on more than the pressures
+        def forces(self):
+            return super().forces() - 100.0 * self.data.qvel
+
+    sim = Braked(arm2, kernel=KERNEL)
+    sim.reset(pressure_pa=4e5)
+    sim.set_command([10, 0, 0, 10])
+    path = tmp_path / "braked.rrd"
+    expected = {}
+    with RerunLogger(arm2, path, flush_every=16) as logger:
+        for _ in range(40):
+            sim.step(10)
+            logger.log_frame(sim)
+            expected[round(sim.time * 1e9)] = sim.forces()[1]
+    logged = read_rrd(path)["/force/elbow"][1]
+    assert logged.keys() == expected.keys()
+    assert np.allclose([logged[t] for t in expected], list(expected.values()), rtol=1e-9)

@@ -87,10 +87,10 @@ POLYTROPIC = 1.4                            # (fast deflection: adiabatic air sp
 N_POSES = 4000                              # random poses for the load statistics
 STROKE_MARGIN_M = 0.004                     # piston clearance kept at each end stop...
 TRAVEL_MARGIN_RAD = 0.1                     # ...and vane clearance
-STROKE_ROUND_M = 0.005
+STROKE_ROUND_M = 0.005                      # strokes rounded up to 5 mm...
+TRAVEL_ROUND_RAD = 0.05                     # ...vane travels to 0.05 rad
 PHI_CLEAR = 0.2                             # rad: lever kept this far from dead centre (0, pi)
 MIN_CYLINDER_BODY_M = 0.035                 # retracted pin distance minus stroke: heads, piston
-TRAVEL_ROUND_RAD = 0.05
 DEAD_TUBE_M3 = 0.5e-6                       # dead volume: the port and the tube's share...
 DEAD_FRACTION = 0.10                        # ...plus this fraction of the swept volume
 DEAD_MIN_M3, DEAD_MAX_M3 = 0.5e-6, 5.0e-6
@@ -105,8 +105,10 @@ DAMPING_PER_TORQUE = 0.005                  # N m s/rad per N m of 6-bar torque
 DAMPING_RANGE = (0.05, 0.5)
 ARMATURE_RANGE = (1e-4, 1e-3)
 VANE_ARMATURE = 1e-4
-# valves: arm2's shoulder valve sized for its 9.4 cm^3/rad cylinder (reference/arm2.md)
-VALVE_REF_VOLUME = 4.0e-6 + math.pi / 4 * 0.020 ** 2 * 0.035   # arm2 shoulder chamber at mid-stroke
+# valves: area ~ chamber volume^VALVE_EXPONENT, anchored at arm2's shoulder (reference/arm2.md:
+# 4 cm^3 dead + half of its 20 mm x 70 mm swept volume -> 8e-7 m^2 supply, 9e-7 m^2 exhaust);
+# exponent 1 gives every chamber arm2's filling time constant
+VALVE_REF_VOLUME = 4.0e-6 + math.pi / 4 * 0.020 ** 2 * 0.035
 VALVE_REF_SUPPLY_M2, VALVE_EXHAUST_RATIO = 8.0e-7, 9.0 / 8.0
 VALVE_EXPONENT = 1.0
 VALVE_AREA_RANGE = (1.5e-7, 2.0e-6)
@@ -573,6 +575,7 @@ def build_mjcf(dyn: dict[str, JointDyn], phases: dict[str, float] | None = None,
 # -- loads and sizing ----------------------------------------------------------------------
 @dataclass
 class Sizing:
+    """One actuator as sized: its loads, transmission, size, stroke and air volumes."""
     link: Link
     kind: str                       # "rotary" | "linear"
     transmission: str               # "joint" | "tendon"
@@ -588,7 +591,7 @@ class Sizing:
     stroke: float = 0.0             # m or rad
     position_at_zero: float = 0.0
     dead_volume: float = 0.0
-    capacity: float = 0.0           # N m at the mean moment arm, 6 bar, rod side
+    capacity: float = 0.0           # N m at 6 bar: rod side x mean moment arm, or D x 6 bar
     extras: dict = field(default_factory=dict)
 
     @property
@@ -603,6 +606,7 @@ class Sizing:
 
 
 def _lengths_over_range(model, data, act_id, qadr, lo, hi, n=201):
+    """(joint angles, MuJoCo actuator lengths) over [lo, hi], the other joints at zero."""
     qs = np.linspace(lo, hi, n)
     L = np.empty(n)
     for i, q in enumerate(qs):
@@ -940,9 +944,21 @@ def update_readme(table: str):
 
 # -- checks ------------------------------------------------------------------------------
 def check(model: mujoco.MjModel, sizes: list[Sizing]):
-    """Home pose inside the ranges, no contact at home, the feet clear of the floor, and every
-    piston inside its stroke over its joint's range."""
+    """Home pose inside the ranges, no contact at home, every piston inside its stroke over
+    its joint's range, and MuJoCo's pin-to-pin lengths equal to :func:`tendon_length`'s."""
     data = mujoco.MjData(model)
+    for s in sizes:
+        if s.transmission != "tendon":
+            continue
+        link = s.link
+        jid = model.joint(link.joint).id
+        qs, L = _lengths_over_range(model, data, model.actuator(link.joint).id,
+                                    model.jnt_qposadr[jid], *model.jnt_range[jid], n=11)
+        base = model.site_pos[model.site(f"{link.joint}_cyl_base").id]
+        rod = model.site_pos[model.site(f"{link.joint}_cyl_rod").id]
+        n = np.asarray(link.axis, float)
+        ours = [np.linalg.norm(np.asarray(link.pos) + rotation(n, q) @ rod - base) for q in qs]
+        assert np.allclose(L, ours, atol=1e-9), link.joint
     key = model.key("home")
     lo, hi = model.jnt_range.T
     assert np.all((key.qpos > lo) & (key.qpos < hi)), "home pose outside a joint range"
