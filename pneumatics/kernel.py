@@ -5,7 +5,7 @@ more than a 2-DOF ``mj_step``; this kernel costs ~1 us.  ``tests/test_kernel.py`
 against the reference to round-off.
 
 Table layouts (from :meth:`pneumatics.tables.FluidTables.packed`):
-  act  (n_act, 5): area_a, area_b, stroke, length_zero, ctrl index
+  act  (n_act, 5): area_a, area_b, stroke, length_zero, MuJoCo actuator id (= ctrl index)
   ch   (n_ch, 12): area, dead volume, is_a, actuator index, 8 valve columns
   glob (12,):      R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply, room, dt,
                    slope of the linearised flow near r = 1
@@ -81,15 +81,17 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
     """Advance p in place over one step, the actuators moving from prev_length to length.
 
     Args (shapes): p (n_ch,) Pa; areas (n_ch, 2) valve supply and exhaust areas [m^2]
-    (pneumatics.valve.valve_areas of the commands); prev_length, length (n_act,) actuator
-    lengths at the step's start and end; act, ch, glob as in the module docstring.
+    (pneumatics.valve.valve_areas of the commands); prev_length (n_act,) lengths of the
+    fluid actuators at the step's start; length (nu,) MuJoCo's ``data.actuator_length`` at
+    its end, indexed by each actuator's MuJoCo id (act[:, 4]); act, ch, glob as in the
+    module docstring.
     """
     dt = glob[10]
     for i in range(ch.shape[0]):
         j = int(ch[i, 3])
         stroke = act[j, 2]
         x0 = min(max(prev_length[j] - act[j, 3], 0.0), stroke)
-        x1 = min(max(length[j] - act[j, 3], 0.0), stroke)
+        x1 = min(max(length[int(act[j, 4])] - act[j, 3], 0.0), stroke)
         x_mid = 0.5 * (x0 + x1)
         if ch[i, 2] > 0.5:
             volume = ch[i, 1] + ch[i, 0] * x_mid
@@ -106,8 +108,8 @@ def fluid_step_fast(p, areas, prev_length, length, ctrl, act, ch, glob):
     pressures into ``ctrl`` and remember ``length`` in ``prev_length``."""
     integrate_chambers(p, areas, prev_length, length, act, ch, glob)
     write_forces(p, ctrl, act, glob)
-    for j in range(length.shape[0]):
-        prev_length[j] = length[j]
+    for j in range(act.shape[0]):
+        prev_length[j] = length[int(act[j, 4])]
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -199,8 +201,8 @@ if _FUNCTIONS is not None:
             _mj_step1(model_addr, data_addr)
             if k > 0:
                 integrate_chambers(p, areas, prev_length, length, act, ch, glob)
-                for j in range(length.shape[0]):
-                    prev_length[j] = length[j]
+                for j in range(act.shape[0]):
+                    prev_length[j] = length[int(act[j, 4])]
                 _accumulate(acc, p, qpos, qvel)
             write_forces(p, ctrl, act, glob)
             _mj_step2(model_addr, data_addr)

@@ -111,10 +111,17 @@ def _assemble(name, model, fluid, path) -> Robot:
     return Robot(name, model, fluid, joints, np.array(ids, int), FluidTables.build(fluid, length_zero), path)
 
 
-def _check_travel(name, model, fluid, ids, length_zero):
-    """A joint transmission's full joint range must keep its piston inside the stroke."""
+def _check_travel(name, model, fluid, ids, length_zero, samples: int = 400):
+    """The joint ranges must keep every piston inside its stroke.
+
+    Joint transmissions are checked exactly from the range; tendon and site transmissions
+    (angle-dependent moment arms) on ``samples`` random poses inside the joint ranges plus
+    every joint at each of its limits with the others at zero.
+    """
+    others = []
     for a, i, lz in zip(fluid.actuators, ids, length_zero):
         if int(model.actuator_trntype[i]) != int(mujoco.mjtTrn.mjTRN_JOINT):
+            others.append((a, i, lz))
             continue
         j = model.actuator_trnid[i, 0]
         if not model.jnt_limited[j]:
@@ -124,6 +131,31 @@ def _check_travel(name, model, fluid, ids, length_zero):
         if lengths.min() < -1e-9 or lengths.max() > a.stroke + 1e-9:
             raise ConfigError(f"{name}: joint {model.joint(j).name!r} range moves actuator {a.name!r} "
                               f"to {lengths.min():.4g}..{lengths.max():.4g}, outside its stroke [0, {a.stroke:.4g}]")
+    if not others:
+        return
+    limited = [j for j in range(model.njnt) if model.jnt_limited[j]
+               and int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))]
+    adr = model.jnt_qposadr[limited]
+    lo, hi = model.jnt_range[limited, 0], model.jnt_range[limited, 1]
+    rng = np.random.default_rng(0)
+    poses = [lo + (hi - lo) * rng.random(len(limited)) for _ in range(samples)]
+    for k in range(len(limited)):
+        for end in (lo, hi):
+            q = np.clip(np.zeros(len(limited)), lo, hi)
+            q[k] = end[k]
+            poses.append(q)
+    data = mujoco.MjData(model)
+    for q in poses:
+        data.qpos[adr] = q
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mujoco.mj_tendon(model, data)
+        mujoco.mj_transmission(model, data)
+        for a, i, lz in others:
+            x = data.actuator_length[i] - lz
+            if x < -1e-6 or x > a.stroke + 1e-6:
+                raise ConfigError(f"{name}: actuator {a.name!r} reaches piston position {x:.4g} (stroke "
+                                  f"[0, {a.stroke:.4g}]) at a pose inside the joint ranges")
 
 
 def joint_index(robot: Robot, joint: str) -> int:

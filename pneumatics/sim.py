@@ -77,7 +77,6 @@ class Simulation:
         self.command = np.array(self.tables.valve[:, 0])  # each valve's null
         self.areas = np.zeros((n_ch, 2))  # valve (supply, exhaust) areas [m^2] at self.command
         self._ids = robot.actuator_ids
-        self._contiguous = bool(np.array_equal(self._ids, np.arange(self._ids.size)))
         self._prev_length = np.zeros(self._ids.size)
         self._packed = pack(self.tables, self._ids, self.model.opt.timestep)
         self._qadr = robot.qpos_index
@@ -161,7 +160,7 @@ class Simulation:
         (see :meth:`take_mean`), for DAQ-style sensor averaging."""
         m, d = self.model, self.data
         self._n_summed += n
-        if self.kernel == "fast" and self._contiguous and run_steps_compiled is not None:
+        if self.kernel == "fast" and run_steps_compiled is not None:
             act, ch, glob = self._packed
             run_steps_compiled(n, m._address, d._address, self.pressure, self.areas, self._prev_length,
                                d.actuator_length, d.ctrl, act, ch, glob, d.qpos, d.qvel, self.sums)
@@ -190,9 +189,8 @@ class Simulation:
         length = self.data.actuator_length[self._ids]
         if self.kernel == "fast":
             act, ch, glob = self._packed
-            fluid_step_fast(self.pressure, self.areas, self._prev_length, length.copy(), self.data.ctrl,
-                            act, ch, glob)
-            self._prev_length[:] = length
+            fluid_step_fast(self.pressure, self.areas, self._prev_length, self.data.actuator_length,
+                            self.data.ctrl, act, ch, glob)
         else:
             self.pressure[:] = fluid_step(self.tables, self.pressure, self.command, self._prev_length,
                                           length, self.dt)

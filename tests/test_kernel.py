@@ -25,6 +25,7 @@ def test_one_step_matches_the_reference_on_random_states(name, rng):
         fast = p.copy()
         ctrl = np.zeros(len(robot.actuator_names))
         kernel.fluid_step_fast(fast, np.column_stack([a_s, a_e]), prev.copy(), length, ctrl, act, ch, glob)
+        # (here the fluid actuators are MuJoCo actuators 0..n-1; test_reordered_actuators covers the rest)
         np.testing.assert_allclose(fast, ref, rtol=1e-11, atol=0)
         np.testing.assert_allclose(ctrl, chamber.actuator_force(tab, ref), rtol=1e-9, atol=1e-9)
 
@@ -86,3 +87,39 @@ def test_step_refinement_is_rare_at_1ms(rng):
     finally:
         chamber.integrate = original
     assert calls["refined"] / (calls["steps"] * tab.n_chambers) < 0.05
+
+
+def test_reordered_and_extra_mujoco_actuators(tmp_path, rng):
+    """Fluid actuators need not be MuJoCo actuators 0..n-1 in TOML order: the kernel indexes
+    data.actuator_length and data.ctrl by MuJoCo id."""
+    import dataclasses
+    import mujoco
+    from pneumatics.robot import _assemble
+
+    xml = models.mjcf_path("arm2").read_text().replace(
+        '<motor class="arm2" name="shoulder" joint="shoulder" gear="0.030"/>',
+        '<motor name="helper" joint="elbow" gear="0.1" ctrllimited="true" ctrlrange="-1 1"/>'
+        '<motor class="arm2" name="elbow_tmp" joint="elbow" gear="0.025"/>'
+        '<motor class="arm2" name="shoulder" joint="shoulder" gear="0.030"/>').replace(
+        '<motor class="arm2" name="elbow" joint="elbow" gear="0.025"/>', "").replace(
+        'name="elbow_tmp"', 'name="elbow"').replace('actuator="shoulder"/>', 'actuator="shoulder"/>', 1)
+    xml = xml.replace('<actuatorfrc name="force.shoulder" actuator="shoulder"/>', "").replace(
+        '<actuatorfrc name="force.elbow" actuator="elbow"/>', "")
+    f = models.folder("arm2") / "_reordered_test.xml"
+    try:
+        f.write_text(xml)
+        model = mujoco.MjModel.from_xml_path(str(f))
+    finally:
+        f.unlink()
+    base = load_robot("arm2")
+    odd = _assemble("arm2", model, base.fluid, None)
+    assert list(odd.actuator_ids) == [2, 1]
+    runs = []
+    for robot in (base, odd):
+        sim = Simulation(robot)
+        sim.reset(pressure_pa=4e5)
+        for u in np.random.default_rng(5).uniform(0, 10, (30, 4)):
+            sim.set_command(u)
+            sim.step(10)
+        runs.append(np.concatenate([sim.pressure, sim.data.qpos]))
+    np.testing.assert_allclose(runs[0], runs[1], rtol=1e-9)
