@@ -24,6 +24,25 @@ def _cmd_bench(args):
     run_bench(quick=args.quick, out=args.out)
 
 
+def _cmd_doctor(args):
+    from rich.console import Console
+
+    from identification.doctor import diagnose
+    from identification.report import summary, write
+    from pneumatics.recording import read_csv
+    from pneumatics.robot import load_robot
+
+    console = Console(stderr=True)
+    robot = load_robot(args.model)
+    recs = [read_csv(p) for p in args.recordings]
+    holds = [read_csv(p) for p in (args.holdout or [])]
+    with console.status("doctor: starting") as status:
+        report = diagnose(robot, recs, holds, progress=lambda msg: status.update(f"doctor: {msg}"))
+    write(report, args.out, robot)
+    print(summary(report))
+    print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
+
+
 def _cmd_models(args):
     import models
 
@@ -45,6 +64,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="fewer steps")
     p.add_argument("--out", default="runs/bench", help="output folder")
     p.set_defaults(func=_cmd_bench)
+    p = sub.add_parser("doctor", help="find the physics a simulation left out (writes DIR/report.json, .md, .rrd)")
+    p.add_argument("--model", required=True, help="model name (pneumasim models)")
+    p.add_argument("recordings", nargs="+", metavar="REC.csv", help="recordings to fit")
+    p.add_argument("--holdout", nargs="+", metavar="REC.csv", help="held-out recordings (default: last 30 %%)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.set_defaults(func=_cmd_doctor)
     p = sub.add_parser("models", help="list the models")
     p.set_defaults(func=_cmd_models)
     return parser

@@ -1,0 +1,86 @@
+"""Calibration first: fit the nominal model's own parameters before blaming missing physics.
+
+* Chambers: per chamber, scales of the valve's supply and exhaust areas and of the dead
+  volume, by short pressure replays (:mod:`identification.pneumatic`), bounded to
+  [1/1.35, 1.35] — a real robot's ±10 % with room to spare, not enough to mimic an effect.
+* Rigid body: per moving body a mass-and-inertia scale, per joint the damping and the
+  armature, by linear least squares on the inverse-dynamics torque (:mod:`mechanics`),
+  bounded likewise (damping to [0.5, 2] x nominal).
+
+Both return an :class:`identification.lsq.Fit` with standard errors.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import lil_matrix
+
+from . import lsq
+from .pneumatic import PneumaticMods, Windows, replay
+
+SCALE_BOUND = 1.35
+
+
+def pressure_sigma(exp) -> float:
+    """Noise floor of the pressure sensors [Pa] (robust, from the data)."""
+    from .smoothing import noise_sd
+    return float(np.median([noise_sd(exp.p[:, c]) for c in range(exp.p.shape[1])]))
+
+
+def chamber_params(mods: PneumaticMods) -> np.ndarray:
+    return np.log(np.concatenate([mods.supply_scale, mods.exhaust_scale, mods.dead_volume_scale]))
+
+
+def with_chamber_params(mods: PneumaticMods, x: np.ndarray) -> PneumaticMods:
+    C = mods.supply_scale.size
+    s = np.exp(x)
+    return mods.copy(supply_scale=s[:C], exhaust_scale=s[C:2 * C], dead_volume_scale=s[2 * C:])
+
+
+def chamber_names(robot) -> list[str]:
+    names = [f"{a}.{c}" for a, c in robot.chamber_names]
+    return ([f"supply_area_scale.{n}" for n in names] + [f"exhaust_area_scale.{n}" for n in names]
+            + [f"dead_volume_scale.{n}" for n in names])
+
+
+def fit_chambers(exp, win: Windows, mods: PneumaticMods | None = None, sigma: float | None = None,
+                 extra=None):
+    """Fit per-chamber area and dead-volume scales; ``extra`` = (names, x0, lo, hi, apply,
+    sparsity_rows) adds effect parameters fitted jointly.  Returns (mods, Fit)."""
+    C = exp.robot.tables.n_chambers
+    mods = mods or PneumaticMods.nominal(C)
+    sigma = sigma or pressure_sigma(exp)
+    W, H = win.starts.size, win.horizon
+    names = chamber_names(exp.robot)
+    x0 = chamber_params(mods)
+    lo = np.full(x0.size, -np.log(SCALE_BOUND))
+    hi = np.full(x0.size, np.log(SCALE_BOUND))
+    n_base = x0.size
+    # residual layout (W, H, C): chamber c's residuals depend on its own three scales
+    sparsity = lil_matrix((W * H * C, n_base + (len(extra[1]) if extra else 0)), dtype=int)
+    rows_of = [np.arange(W * H) * C + c for c in range(C)]
+    for c in range(C):
+        for k in range(3):
+            sparsity[rows_of[c], k * C + c] = 1
+    if extra:
+        e_names, e_x0, e_lo, e_hi, apply, e_rows = extra
+        names = names + list(e_names)
+        x0 = np.concatenate([x0, e_x0])
+        lo = np.concatenate([lo, e_lo])
+        hi = np.concatenate([hi, e_hi])
+        for j, chambers in enumerate(e_rows):
+            for c in chambers:
+                sparsity[rows_of[c], n_base + j] = 1
+
+    def build(x):
+        m = with_chamber_params(mods, x[:n_base])
+        if extra:
+            m = extra[4](m, x[n_base:])
+        return m
+
+    def residual(x):
+        pred, meas = replay(exp, win, build(x))
+        return ((pred - meas) / sigma).ravel()
+
+    fit = lsq.nonlinear(residual, x0, names, lo, hi, jac_sparsity=sparsity.tocsr(), max_nfev=40,
+                        diff_step=1e-4)
+    return build(fit.values), fit

@@ -1,0 +1,124 @@
+"""A recording prepared for identification: aligned, smoothed, differentiated, with the
+model quantities (actuator lengths, chamber volumes) the equations need.
+
+Timing (DESIGN.md recordings, paper 002 DAQ): a sensor row k is the mean over the control
+period ending at time[k], i.e. centred half a period earlier; a command row k is held over
+[time[k], time[k+1]).  Sensor-derived quantities are therefore placed at ``t_sensor``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from pneumatics.errors import RecordingError
+from pneumatics.recording import Recording, validate
+from pneumatics.robot import Robot
+
+from .smoothing import smooth_derivatives
+
+FINE_DT = 1e-3
+
+
+@dataclass
+class Experiment:
+    """Shapes: N samples, J joints, C chambers (a0, b0, a1, b1, ...), F fine (1 ms) steps."""
+
+    robot: Robot
+    rec: Recording
+    t: np.ndarray            # (N,) sample times [s]
+    t_sensor: np.ndarray     # (N,) times the (averaged) sensor values stand for
+    q: np.ndarray            # (N, J) measured angles
+    q_s: np.ndarray          # (N, J) smoothed
+    qd: np.ndarray           # (N, J) from the smoothing spline
+    qdd: np.ndarray          # (N, J)
+    p: np.ndarray            # (N, C) measured pressures [Pa]
+    u: np.ndarray            # (N, C) valve commands [V]
+    averaged: bool
+    fine_t: np.ndarray = field(default=None)       # (F,) 1 ms grid from t[0]
+    fine_length: np.ndarray = field(default=None)  # (F, n_act) actuator lengths on the grid
+    fine_q: np.ndarray = field(default=None)       # (F, J)
+
+    @property
+    def rate_hz(self) -> float:
+        return float(1.0 / np.median(np.diff(self.t)))
+
+    @property
+    def n_sub(self) -> int:
+        return int(round(1.0 / (self.rate_hz * FINE_DT)))
+
+
+def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None) -> Experiment:
+    """Validate ``rec`` against ``robot`` and prepare it (raises RecordingError on bad data)."""
+    validate(rec, robot.joint_names, robot.actuator_names, model_name=robot.name)
+    t = rec.time
+    if t.size < 200:
+        raise RecordingError(f"{rec.source}: {t.size} rows is too short to diagnose (need >= 200, ~2 s at 100 Hz)")
+    dt = np.diff(t)
+    if np.max(dt) > 1.5 * np.median(dt) or np.min(dt) < 0.5 * np.median(dt):
+        i = int(np.argmax(np.abs(dt - np.median(dt))))
+        raise RecordingError(f"{rec.source}: the sample rate is not uniform (step {dt[i]:.4g} s at t = {t[i]:.3f} s, "
+                             f"median {np.median(dt):.4g} s); resample or split the recording at the gap")
+    rate = 1.0 / np.median(dt)
+    if abs(rate * FINE_DT * round(1.0 / (rate * FINE_DT)) - 1.0) > 1e-3:
+        raise RecordingError(f"{rec.source}: sample rate {rate:.4g} Hz is not a whole fraction of 1 kHz")
+    if averaged is None:
+        averaged = bool(rec.meta.get("daq_averaging", True))
+    shift = 0.5 / rate if averaged else 0.0
+    ts = t - shift
+    joints, acts = robot.joint_names, robot.actuator_names
+    q = rec.matrix("q", joints)
+    p = np.column_stack([rec[f"p_{c}.{a}"] for a in acts for c in ("a", "b")])
+    u = np.column_stack([rec[f"u_{c}.{a}"] for a in acts for c in ("a", "b")])
+    d = [smooth_derivatives(ts, q[:, j], order=2) for j in range(len(joints))]
+    q_s = np.column_stack([x[0] for x in d])
+    qd = np.column_stack([x[1] for x in d])
+    qdd = np.column_stack([x[2] for x in d])
+    exp = Experiment(robot, rec, t, ts, q, q_s, qd, qdd, p, u, averaged)
+    _fine_geometry(exp)
+    return exp
+
+
+def _fine_geometry(exp: Experiment):
+    """Actuator lengths on the 1 ms grid from the smoothed angles (cubic interpolation of q_s)."""
+    from scipy.interpolate import CubicSpline
+
+    robot = exp.robot
+    n_f = int(round((exp.t[-1] - exp.t[0]) / FINE_DT)) + 1
+    fine_t = exp.t[0] + np.arange(n_f) * FINE_DT
+    cs = CubicSpline(exp.t_sensor, exp.q_s, axis=0, extrapolate=True)
+    fine_q = cs(fine_t)
+    exp.fine_t, exp.fine_q = fine_t, fine_q
+    exp.fine_length = actuator_lengths(robot, fine_q)
+
+
+def actuator_lengths(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """(F, n_act) actuator lengths at joint positions q (F, J), as MuJoCo computes them."""
+    m = robot.model
+    ids = robot.actuator_ids
+    jt = int(mujoco.mjtTrn.mjTRN_JOINT)
+    if all(int(m.actuator_trntype[i]) == jt for i in ids):  # fast path: L = gear * q
+        out = np.empty((q.shape[0], ids.size))
+        for k, i in enumerate(ids):
+            jnt = m.actuator_trnid[i, 0]
+            col = robot.joint_names.index(m.joint(jnt).name)
+            out[:, k] = m.actuator_gear[i, 0] * q[:, col]
+        return out
+    d = mujoco.MjData(m)
+    adr = robot.qpos_index
+    out = np.empty((q.shape[0], ids.size))
+    for f in range(q.shape[0]):
+        d.qpos[adr] = q[f]
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_tendon(m, d)
+        mujoco.mj_transmission(m, d)
+        out[f] = d.actuator_length[ids]
+    return out
+
+
+def split(rec: Recording, holdout_fraction: float = 0.3) -> tuple[Recording, Recording]:
+    """(fit part, held-out part): the last ``holdout_fraction`` of the recording held out."""
+    t_cut = rec.time[0] + (1 - holdout_fraction) * (rec.time[-1] - rec.time[0])
+    return rec.slice(rec.time[0], t_cut), rec.slice(t_cut, rec.time[-1] + 1.0)

@@ -1,0 +1,98 @@
+"""The doctor's hypotheses: every effect of the vocabulary, at every place it could act.
+
+A pneumatic hypothesis changes the chamber model (:class:`PneumaticMods`) through one or
+two parameters and is tested by pressure replays; a mechanical one adds torque regressors to
+the rigid-body equation error.  Parameters carry their unit in the name.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from pneumatics.effects.friction import coulomb_shape, stribeck_shape
+
+from .pneumatic import PneumaticMods
+
+
+@dataclass
+class Hypothesis:
+    family: str
+    where: dict
+    kind: str                     # "pneumatic" | "mechanical"
+    params: list                  # [(name_unit, start, lower, upper, probe step)]
+    chambers: list = field(default_factory=list)   # chambers whose replay it changes
+    joint: int | None = None
+    apply: Callable | None = None           # (mods, x) -> mods
+    regressor: Callable | None = None       # (exp, td) -> (N, J, E)
+
+    @property
+    def label(self) -> str:
+        w = self.where
+        place = w.get("joint") or (f"{w['actuator']}.{w['chamber']}" if "chamber" in w else w.get("actuator", "all"))
+        return f"{self.family}@{place}"
+
+
+def _set(field_name, c, n, value_transform=lambda v: v):
+    def apply(mods, x):
+        arr = getattr(mods, field_name)
+        arr = np.zeros(n) if arr is None else arr.copy()
+        arr[c] = value_transform(x[0])
+        return mods.copy(**{field_name: arr})
+    return apply
+
+
+def pneumatic_hypotheses(robot) -> list[Hypothesis]:
+    out = []
+    C = robot.tables.n_chambers
+    n_act = len(robot.actuator_names)
+    for c, (a, ch) in enumerate(robot.chamber_names):
+        where = {"actuator": a, "chamber": ch}
+        out += [
+            Hypothesis("valve_leak", where, "pneumatic", [("leak_area_m2", 0.0, 0.0, 4e-7, 2e-8)], [c],
+                       apply=_set("valve_leak_m2", c, C)),
+            Hypothesis("external_leak", where, "pneumatic", [("leak_area_m2", 0.0, 0.0, 4e-7, 1e-8)], [c],
+                       apply=_set("external_leak_m2", c, C)),
+            Hypothesis("valve_hysteresis", where, "pneumatic", [("half_width_v", 0.0, 0.0, 2.0, 0.1)], [c],
+                       apply=_set("hysteresis_v", c, C)),
+            Hypothesis("valve_lag", where, "pneumatic", [("time_constant_s", 0.0, 0.0, 0.15, 0.004)], [c],
+                       apply=_set("lag_s", c, C)),
+            Hypothesis("line_dynamics", where, "pneumatic", [("delay_s", 0.0, 0.0, 0.15, 0.004)], [c],
+                       apply=_set("delay_s", c, C)),
+            Hypothesis("pressure_sensor_offset", where, "pneumatic", [("offset_pa", 0.0, -5e4, 5e4, 2000.0)], [c],
+                       apply=_set("sensor_offset_pa", c, C)),
+        ]
+    for j, a in enumerate(robot.actuator_names):
+        out.append(Hypothesis("piston_leak", {"actuator": a}, "pneumatic", [("leak_area_m2", 0.0, 0.0, 4e-7, 1e-8)],
+                              [2 * j, 2 * j + 1], apply=_set("piston_leak_m2", j, n_act)))
+    out.append(Hypothesis("supply_droop", {"supply": "all"}, "pneumatic",
+                          [("droop_pa_per_kg_s", 0.0, 0.0, 5e8, 5e6)], list(range(C)),
+                          apply=lambda mods, x: mods.copy(supply_droop_pa_per_kg_s=float(x[0]))))
+    return out
+
+
+def _joint_reg(j, fn):
+    def reg(exp, td):
+        n, J = exp.qd.shape
+        out = np.zeros((n, J, 1))
+        out[:, j, 0] = fn(exp, td)
+        return out
+    return reg
+
+
+def mechanical_hypotheses(robot) -> list[Hypothesis]:
+    out = []
+    for j, name in enumerate(robot.joint_names):
+        w = {"joint": name}
+        out += [
+            Hypothesis("coulomb_friction", w, "mechanical", [("coulomb_nm", 0.0, 0.0, np.inf, 0.0)], joint=j,
+                       regressor=_joint_reg(j, lambda e, td, j=j: coulomb_shape(e.qd[:, j]))),
+            Hypothesis("stiction", w, "mechanical", [("breakaway_extra_nm", 0.0, 0.0, np.inf, 0.0)], joint=j,
+                       regressor=_joint_reg(j, lambda e, td, j=j: stribeck_shape(e.qd[:, j]))),
+            Hypothesis("viscous_friction", w, "mechanical", [("viscous_nm_s_per_rad", 0.0, 0.0, np.inf, 0.0)],
+                       joint=j, regressor=_joint_reg(j, lambda e, td, j=j: e.qd[:, j])),
+            Hypothesis("angle_sensor_offset", w, "mechanical", [("offset_rad", 0.0, -0.2, 0.2, 0.0)], joint=j,
+                       regressor=lambda e, td, j=j: -td.dtau_dq[:, :, j:j + 1]),
+        ]
+    return out

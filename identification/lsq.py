@@ -1,0 +1,71 @@
+"""Least squares with parameter standard errors and identifiability diagnostics.
+
+Both the linear and the nonlinear fits return a :class:`Fit`: values, standard errors from
+the Gauss-Newton covariance s^2 (J^T J)^-1, the condition number of J^T J (scaled by the
+parameter scales) and which parameters ended at a bound — the identifiability checks the
+doctor reports.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+
+@dataclass
+class Fit:
+    names: list
+    values: np.ndarray
+    stderr: np.ndarray
+    rss: float
+    n: int
+    condition: float
+    at_bound: list
+    residual: np.ndarray
+
+    def as_dict(self) -> dict:
+        return {k: {"value": float(v), "stderr": float(s)} for k, v, s in zip(self.names, self.values, self.stderr)}
+
+
+def _covariance(jac, rss, n):
+    if hasattr(jac, "toarray"):  # sparse Jacobian from jac_sparsity
+        jac = jac.toarray()
+    p = jac.shape[1]
+    s2 = rss / max(n - p, 1)
+    jtj = jac.T @ jac
+    scale = np.sqrt(np.maximum(np.diag(jtj), 1e-300))
+    jtj_s = jtj / np.outer(scale, scale)
+    cond = float(np.linalg.cond(jtj_s))
+    try:
+        cov = np.linalg.pinv(jtj) * s2
+        se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    except np.linalg.LinAlgError:
+        se = np.full(p, np.inf)
+    return se, cond
+
+
+def linear(A: np.ndarray, b: np.ndarray, names, weights: np.ndarray | None = None) -> Fit:
+    """Ordinary (optionally weighted) least squares of A theta = b."""
+    if weights is not None:
+        A = A * weights[:, None]
+        b = b * weights
+    theta, *_ = np.linalg.lstsq(A, b, rcond=None)
+    res = b - A @ theta
+    rss = float(res @ res)
+    se, cond = _covariance(A, rss, b.size)
+    return Fit(list(names), theta, se, rss, b.size, cond, [], res)
+
+
+def nonlinear(fun, x0, names, lower=None, upper=None, **kw) -> Fit:
+    """scipy.optimize.least_squares (trust-region reflective) with a Fit summary."""
+    x0 = np.asarray(x0, float)
+    lower = np.full(x0.size, -np.inf) if lower is None else np.asarray(lower, float)
+    upper = np.full(x0.size, np.inf) if upper is None else np.asarray(upper, float)
+    r = least_squares(fun, x0, bounds=(lower, upper), x_scale="jac", **kw)
+    rss = float(r.fun @ r.fun)
+    se, cond = _covariance(r.jac, rss, r.fun.size)
+    span = np.where(np.isfinite(upper - lower), upper - lower, 1.0)
+    at = [n for n, v, lo, hi, s in zip(names, r.x, lower, upper, span)
+          if (np.isfinite(lo) and v - lo < 1e-3 * s) or (np.isfinite(hi) and hi - v < 1e-3 * s)]
+    return Fit(list(names), r.x, se, rss, r.fun.size, cond, at, r.fun)

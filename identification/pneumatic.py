@@ -1,0 +1,198 @@
+"""Short pressure replays of every chamber, driven by the *measured* motion and commands.
+
+Each window starts from the measured pressures and integrates paper 002 eq. 9 over 1 ms steps
+with the chamber volumes that the recorded joint angles imply, so the chambers' own physics
+is tested without the rigid body in the loop (an output-error test with restarts, immune to
+the drift of a free-running arm).  All windows and chambers integrate together as one batch.
+
+The chamber model can be modified by :class:`PneumaticMods` — calibration scales and the
+pneumatic effect hypotheses — and outputs what the DAQ would have recorded (10 ms means).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pneumatics.chamber import GAMMA
+from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play
+from pneumatics.medium import orifice_flow
+from pneumatics.valve import valve_areas
+
+from .data import FINE_DT, Experiment
+
+
+@dataclass
+class PneumaticMods:
+    """Changes to the nominal chamber model; arrays are per chamber (C,) unless noted."""
+
+    supply_scale: np.ndarray          # multiplies each valve's supply areas
+    exhaust_scale: np.ndarray         # multiplies each valve's exhaust areas
+    dead_volume_scale: np.ndarray     # multiplies each chamber's dead volume
+    valve_leak_m2: np.ndarray = None          # extra area open both ways near null (valve_leak)
+    valve_leak_width_v: float = 0.6
+    external_leak_m2: np.ndarray = None       # orifice from the chamber to the room
+    piston_leak_m2: np.ndarray = None         # (n_act,) orifice between chambers a and b
+    hysteresis_v: np.ndarray = None           # play half-width on each valve's command
+    lag_s: np.ndarray = None                  # first-order valve lag
+    delay_s: np.ndarray = None                # command dead time
+    extra_volume_m3: np.ndarray = None        # line volume added to the dead volume
+    sensor_offset_pa: np.ndarray = None       # measured = true + offset
+    supply_droop_pa_per_kg_s: float = 0.0     # supply pressure drop per kg/s of total supply flow
+
+    @classmethod
+    def nominal(cls, n_ch: int) -> "PneumaticMods":
+        return cls(np.ones(n_ch), np.ones(n_ch), np.ones(n_ch))
+
+    def copy(self, **changes) -> "PneumaticMods":
+        import dataclasses
+        out = dataclasses.replace(self)
+        for k, v in vars(out).items():
+            if isinstance(v, np.ndarray):
+                setattr(out, k, v.copy())
+        for k, v in changes.items():
+            setattr(out, k, v)
+        return out
+
+
+@dataclass
+class Windows:
+    """Replay windows: start sample indices (W,) and horizon in samples."""
+
+    starts: np.ndarray
+    horizon: int
+
+    @classmethod
+    def tile(cls, n_samples: int, horizon: int, stride: int | None = None, first: int = 2) -> "Windows":
+        stride = stride or horizon
+        starts = np.arange(first, n_samples - horizon - 1, stride)
+        return cls(starts, horizon)
+
+
+def effective_commands(exp: Experiment, mods: PneumaticMods) -> np.ndarray:
+    """(F, C) commands on the 1 ms grid after hysteresis, lag and dead time."""
+    u = exp.u.copy()
+    if mods.hysteresis_v is not None:
+        for c in np.nonzero(mods.hysteresis_v > 0)[0]:
+            u[:, c] = play(u[:, c], mods.hysteresis_v[c])
+    n_f = exp.fine_t.size
+    idx = np.minimum(np.arange(n_f) // exp.n_sub, exp.u.shape[0] - 1)
+    fine = u[idx]
+    if mods.lag_s is not None:
+        for c in np.nonzero(mods.lag_s > 0)[0]:
+            fine[:, c] = first_order_lag(fine[:, c], mods.lag_s[c], FINE_DT)
+    if mods.delay_s is not None:
+        for c in np.nonzero(mods.delay_s > 0)[0]:
+            fine[:, c] = dead_time(fine[:, c], mods.delay_s[c], FINE_DT)
+    return fine
+
+
+class ChamberModel:
+    """The (modified) chamber equations for a batch (W, C) of chamber sets; one 1 ms step at a
+    time.  Shared by the pressure replays and the coupled replays (:mod:`replay`)."""
+
+    def __init__(self, robot, mods: PneumaticMods, batch: int):
+        tab = robot.tables
+        self.tab, self.mods, self.W = tab, mods, batch
+        self.gas = tab.gas
+        self.rt = self.gas.gas_constant_j_per_kg_k * self.gas.temperature_k
+        self.n = self.gas.polytropic_exponent
+        self.dead = tab.dead_volume * mods.dead_volume_scale
+        if mods.extra_volume_m3 is not None:
+            self.dead = self.dead + mods.extra_volume_m3
+        self.rows = np.repeat(tab.valve[None], batch, 0).reshape(-1, 8)
+        self.m_supply_total = np.zeros((batch, 1))
+
+    def travel(self, length):
+        """Chamber travel (W, C) from actuator lengths (W, n_act)."""
+        tab = self.tab
+        act = tab.actuator_of_chamber
+        x = np.clip(length[:, act] - tab.length_zero[act], 0.0, tab.stroke[act])
+        return np.where(tab.is_a, x, tab.stroke[act] - x)
+
+    def step(self, p, u, travel0, travel1):
+        """p (W, C) -> p after one FINE_DT step with commands u (W, C) and travels at its ends."""
+        tab, mods, gas = self.tab, self.mods, self.gas
+        W, C = p.shape
+        a_s, a_e = valve_areas(u.ravel(), self.rows[: W * C])
+        a_s = a_s.reshape(W, C) * mods.supply_scale
+        a_e = a_e.reshape(W, C) * mods.exhaust_scale
+        if mods.valve_leak_m2 is not None:
+            g = np.exp(-((u - tab.valve[:, 0]) / mods.valve_leak_width_v) ** 2)
+            a_s = a_s + mods.valve_leak_m2 * g
+            a_e = a_e + mods.valve_leak_m2 * g
+        vol = self.dead + tab.area * 0.5 * (travel0 + travel1)
+        vdot = tab.area * (travel1 - travel0) / FINE_DT
+        droop = mods.supply_droop_pa_per_kg_s > 0
+        ps = tab.supply_pa - mods.supply_droop_pa_per_kg_s * self.m_supply_total if droop else tab.supply_pa
+        room, rt, n = tab.room_pa, self.rt, self.n
+
+        def rhs(q):
+            m_s, _, dms = orifice_flow(a_s, ps, q, gas)
+            m_e, dme, _ = orifice_flow(a_e, q, room, gas)
+            m = m_s - m_e
+            dm = dms - dme
+            if mods.external_leak_m2 is not None:
+                m_x, dmx, _ = orifice_flow(mods.external_leak_m2, q, room, gas)
+                m = m - m_x
+                dm = dm - dmx
+            if mods.piston_leak_m2 is not None:
+                m_ab, dab_a, dab_b = orifice_flow(mods.piston_leak_m2, q[:, 0::2], q[:, 1::2], gas)  # a -> b
+                m = m.copy()
+                dm = dm.copy()
+                m[:, 0::2] -= m_ab
+                m[:, 1::2] += m_ab
+                dm[:, 0::2] -= dab_a
+                dm[:, 1::2] += dab_b
+            return n / vol * (rt * m - q * vdot), n / vol * (rt * dm - vdot), m_s
+
+        f0, jac, m_s = rhs(p)
+        denom = 1.0 - GAMMA * FINE_DT * jac
+        k1 = f0 / denom
+        f1, _, _ = rhs(p + FINE_DT * k1)
+        k2 = (f1 - 2.0 * k1) / denom
+        p_new = p + 1.5 * FINE_DT * k1 + 0.5 * FINE_DT * k2
+        bad = ~np.isfinite(p_new) | (p_new <= 0)
+        if bad.any():
+            p_new = np.where(bad, p, p_new)
+        if droop:
+            self.m_supply_total = np.maximum(m_s, 0).sum(axis=1, keepdims=True)
+        return p_new
+
+
+def initial_pressure(exp: Experiment, k0, mods: PneumaticMods):
+    """Pressures at sample times t[k0] (W, C): the DAQ mean stands half a period back, so
+    extrapolate it half a period; remove a modelled sensor offset."""
+    p = exp.p
+    p0 = p[k0] + 0.5 * (p[k0] - p[k0 - 1]) if exp.averaged else p[k0].copy()
+    if mods.sensor_offset_pa is not None:
+        p0 = p0 - mods.sensor_offset_pa
+    return p0
+
+
+def replay(exp: Experiment, win: Windows, mods: PneumaticMods):
+    """Predicted DAQ pressures at samples starts+1 .. starts+H, with the measured ones.
+
+    Returns (predicted, measured), each (W, H, C) [Pa]."""
+    W, H, S = win.starts.size, win.horizon, exp.n_sub
+    C = exp.robot.tables.n_chambers
+    model = ChamberModel(exp.robot, mods, W)
+    u_f = effective_commands(exp, mods)
+    travel = model.travel(exp.fine_length)            # (F, C)
+    k0 = win.starts
+    p = initial_pressure(exp, k0, mods)
+    out = np.zeros((W, H, C))
+    acc = np.zeros((W, C))
+    f0 = k0 * S
+    last = travel.shape[0] - 1
+    for step in range(H * S):
+        f = f0 + step
+        p = model.step(p, u_f[f], travel[f], travel[np.minimum(f + 1, last)])
+        acc += p
+        if (step + 1) % S == 0:
+            out[:, (step + 1) // S - 1] = acc / S if exp.averaged else p
+            acc[:] = 0
+    if mods.sensor_offset_pa is not None:
+        out = out + mods.sensor_offset_pa
+    idx = k0[:, None] + 1 + np.arange(H)[None]
+    return out, exp.p[idx]

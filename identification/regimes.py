@@ -1,0 +1,120 @@
+"""Where and when a residual lives: time windows and physically meaningful regimes.
+
+Each regime is a boolean mask over samples built from the recording (velocity sign and size,
+velocity reversals, commands near null or reversing, pressure level, chamber volume, flow
+direction, time since a command step).  A residual "lives" in the regime whose share of the
+residual energy most exceeds its share of time (lift), among regimes covering at least 5 %
+of the samples.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .data import Experiment
+
+
+def joint_regimes(exp: Experiment, j: int) -> dict:
+    qd = exp.qd[:, j]
+    speed = np.abs(qd)
+    slow = speed < np.percentile(speed, 20)
+    sign = np.sign(qd)
+    flip = np.zeros_like(slow)
+    idx = np.nonzero(np.diff(sign) != 0)[0]
+    for i in idx:
+        flip[max(0, i - 5): i + 6] = True
+    rng = exp.robot.joint_range()[j]
+    span = rng[1] - rng[0]
+    q = exp.q_s[:, j]
+    return {
+        "velocity reversals": flip,
+        "low velocity (stick-slip range)": slow,
+        "high velocity": speed > np.percentile(speed, 80),
+        "positive velocity": qd > 0,
+        "negative velocity": qd < 0,
+        "near the joint limits": (q < rng[0] + 0.1 * span) | (q > rng[1] - 0.1 * span),
+    }
+
+
+def chamber_regimes(exp: Experiment, c: int) -> dict:
+    tab = exp.robot.tables
+    u = exp.u[:, c]
+    null = tab.valve[c, 0]
+    du = np.diff(u, prepend=u[0])
+    rev = np.zeros(u.size, bool)
+    s = np.sign(du)
+    nz = np.nonzero(s)[0]
+    for a, b in zip(nz[:-1], nz[1:]):
+        if s[a] != s[b]:
+            rev[b: b + 5] = True
+    step = np.zeros(u.size, bool)
+    for i in np.nonzero(np.abs(du) > 1.0)[0]:
+        step[i: i + 5] = True
+    p = exp.p[:, c]
+    act = tab.actuator_of_chamber[c]
+    x = exp.fine_length[:: exp.n_sub][: u.size, act] - tab.length_zero[act]
+    travel = x if tab.is_a[c] else tab.stroke[act] - x
+    return {
+        "command near null (within 0.5 V)": np.abs(u - null) < 0.5,
+        "command reversals": rev,
+        "within 50 ms of a command step": step,
+        "valve open to supply (filling)": u > null + 0.5,
+        "valve open to room (venting)": u < null - 0.5,
+        "high pressure (above 5 bar)": p > 5e5,
+        "low pressure (below 3 bar)": p < 3e5,
+        "small chamber volume": travel < 0.25 * tab.stroke[act],
+    }
+
+
+def locate_regime(residual: np.ndarray, regimes: dict, min_cover: float = 0.05):
+    """(name, lift, share) of the regime holding the most residual energy per unit time."""
+    e = residual ** 2
+    total = e.sum()
+    best = ("throughout", 1.0, 1.0)
+    if total <= 0:
+        return best
+    for name, m in regimes.items():
+        cover = m.mean()
+        if cover < min_cover or cover > 0.95:
+            continue
+        share = e[m].sum() / total
+        lift = share / cover
+        if lift > best[1]:
+            best = (name, float(lift), float(share))
+    return best
+
+
+def windows(t: np.ndarray, residual: np.ndarray, block_s: float = 1.0, factor: float = 2.0, most: int = 5):
+    """Time windows [[t0, t1], ...] where the residual's block RMS exceeds factor x median."""
+    n = max(1, int(round(block_s / np.median(np.diff(t)))))
+    nb = residual.size // n
+    if nb == 0:
+        return []
+    rms = np.sqrt(np.mean(residual[: nb * n].reshape(nb, n) ** 2, axis=1))
+    hot = rms > factor * np.median(rms)
+    spans = []
+    i = 0
+    while i < nb:
+        if hot[i]:
+            j = i
+            while j + 1 < nb and hot[j + 1]:
+                j += 1
+            spans.append((float(rms[i: j + 1].max()), [float(t[i * n]), float(t[min((j + 1) * n, t.size - 1)])]))
+            i = j + 1
+        else:
+            i += 1
+    spans.sort(key=lambda s: -s[0])
+    return sorted([s[1] for s in spans[:most]])
+
+
+def ljung_box(residual: np.ndarray, lags: int = 20) -> float:
+    """Ljung-Box Q statistic of a residual (large = not white)."""
+    r = residual - residual.mean()
+    n = r.size
+    denom = float(r @ r)
+    if denom <= 0:
+        return 0.0
+    q = 0.0
+    for k in range(1, lags + 1):
+        rho = float(r[k:] @ r[:-k]) / denom
+        q += rho ** 2 / (n - k)
+    return float(n * (n + 2) * q)

@@ -1,0 +1,154 @@
+"""Coupled short replays: MuJoCo and the (modified) chamber model together, restarted from
+the measured state every ``horizon_s`` and driven by the recorded valve commands — the
+simulation error of DESIGN.md's doctor, step 3.  (Without its controller the arm has no
+restoring force: a free run of a whole recording drifts away whatever the model, so runs of
+about a second are restarted from the measured state.)
+"""
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from pneumatics.effects.friction import friction_torque
+
+from .data import FINE_DT, Experiment
+from .pneumatic import ChamberModel, PneumaticMods, effective_commands, initial_pressure
+
+
+@dataclass
+class MechMods:
+    """Rigid-body calibration and mechanical effects; arrays per joint (J,)."""
+
+    mass_scale: dict = field(default_factory=dict)      # body name -> relative change (0 = nominal)
+    damping_scale: dict = field(default_factory=dict)   # joint -> relative change
+    armature_scale: dict = field(default_factory=dict)
+    coulomb_nm: np.ndarray = None
+    stiction_extra_nm: np.ndarray = None
+    viscous_nm_s: np.ndarray = None
+    angle_offset_rad: np.ndarray = None
+
+    @classmethod
+    def from_fit(cls, fit, joint_names, extra_terms=()) -> "MechMods":
+        m = cls()
+        J = len(joint_names)
+        for name, v in zip(fit.names, fit.values):
+            kind, _, where = name.partition(".")
+            if kind == "mass_scale":
+                m.mass_scale[where] = float(v)
+            elif kind == "damping_scale":
+                m.damping_scale[where] = float(v)
+            elif kind == "armature_scale":
+                m.armature_scale[where] = float(v)
+        for (attr, j), v in zip(extra_terms, fit.values[len(fit.values) - len(extra_terms):]):
+            arr = getattr(m, attr)
+            arr = np.zeros(J) if arr is None else arr
+            arr[j] = v
+            setattr(m, attr, arr)
+        return m
+
+    def model(self, base: mujoco.MjModel) -> mujoco.MjModel:
+        m = copy.copy(base)
+        for body, s in self.mass_scale.items():
+            b = m.body(body).id
+            m.body_mass[b] *= 1 + s
+            m.body_inertia[b] *= 1 + s
+        for joint, s in self.damping_scale.items():
+            m.dof_damping[m.joint(joint).dofadr[0]] *= 1 + s
+        for joint, s in self.armature_scale.items():
+            m.dof_armature[m.joint(joint).dofadr[0]] *= 1 + s
+        return m
+
+    def torque(self, qd: np.ndarray) -> np.ndarray | None:
+        if self.coulomb_nm is None and self.stiction_extra_nm is None and self.viscous_nm_s is None:
+            return None
+        z = np.zeros_like(qd)
+        return friction_torque(qd, z + (0 if self.coulomb_nm is None else self.coulomb_nm),
+                               z + (0 if self.stiction_extra_nm is None else self.stiction_extra_nm),
+                               0.1, z + (0 if self.viscous_nm_s is None else self.viscous_nm_s))
+
+
+@dataclass
+class ReplayResult:
+    """Predicted vs measured DAQ samples over all windows: dicts channel -> (M,) arrays."""
+
+    predicted: dict
+    measured: dict
+    times: np.ndarray
+
+    def nrmse(self) -> dict:
+        return {c: float(np.sqrt(np.mean((self.predicted[c] - self.measured[c]) ** 2)) / max(np.std(self.measured[c]), 1e-12))
+                for c in self.predicted}
+
+    def r2(self) -> dict:
+        return {c: 1.0 - v ** 2 for c, v in self.nrmse().items()}
+
+
+def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horizon_s: float = 1.0) -> ReplayResult:
+    robot = exp.robot
+    model = mmods.model(robot.model)
+    S = exp.n_sub
+    H = int(round(horizon_s * exp.rate_hz))
+    starts = np.arange(2, len(exp.t) - H - 1, H)
+    W = starts.size
+    J = len(robot.joint_names)
+    qadr, dadr, ids = robot.qpos_index, robot.dof_index, robot.actuator_ids
+    datas = [mujoco.MjData(model) for _ in range(W)]
+    fq = exp.fine_q
+    offset = mmods.angle_offset_rad if mmods.angle_offset_rad is not None else np.zeros(J)
+    for w, k0 in enumerate(starts):
+        f = k0 * S
+        d = datas[w]
+        d.qpos[qadr] = fq[f] - offset
+        d.qvel[dadr] = (fq[f + 1] - fq[f - 1]) / (2 * FINE_DT)
+        mujoco.mj_forward(model, d)
+    chambers = ChamberModel(robot, pmods, W)
+    u_f = effective_commands(exp, pmods)
+    p = initial_pressure(exp, starts, pmods)
+    lengths = np.array([d.actuator_length[ids] for d in datas])
+    travel0 = chambers.travel(lengths)
+    tab = robot.tables
+    out_q = np.zeros((W, H, J))
+    out_p = np.zeros((W, H, tab.n_chambers))
+    acc_q = np.zeros((W, J))
+    acc_p = np.zeros_like(p)
+    for step in range(H * S):
+        f = starts * S + step
+        forces = tab.area_a * p[:, 0::2] - tab.area_b * p[:, 1::2] - (tab.area_a - tab.area_b) * tab.room_pa
+        qd = np.array([d.qvel[dadr] for d in datas])
+        tau = mmods.torque(qd)
+        for w, d in enumerate(datas):
+            d.ctrl[ids] = forces[w]
+            if tau is not None:
+                d.qfrc_applied[dadr] = tau[w]
+            mujoco.mj_step(model, d)
+        # lengths after the step (joint transmissions: gear * q; others need kinematics)
+        for w, d in enumerate(datas):
+            mujoco.mj_kinematics(model, d)
+            mujoco.mj_comPos(model, d)
+            mujoco.mj_tendon(model, d)
+            mujoco.mj_transmission(model, d)
+            lengths[w] = d.actuator_length[ids]
+        travel1 = chambers.travel(lengths)
+        p = chambers.step(p, u_f[f], travel0, travel1)
+        travel0 = travel1
+        acc_p += p
+        acc_q += np.array([d.qpos[qadr] for d in datas])
+        if (step + 1) % S == 0:
+            h = (step + 1) // S - 1
+            out_p[:, h] = acc_p / S if exp.averaged else p
+            out_q[:, h] = acc_q / S if exp.averaged else acc_q
+            acc_p[:] = 0
+            acc_q[:] = 0
+    out_q += offset
+    if pmods.sensor_offset_pa is not None:
+        out_p += pmods.sensor_offset_pa
+    idx = starts[:, None] + 1 + np.arange(H)[None]
+    pred, meas = {}, {}
+    for j, name in enumerate(robot.joint_names):
+        pred[f"q.{name}"], meas[f"q.{name}"] = out_q[:, :, j].ravel(), exp.q[idx, j].ravel()
+    for c, (a, ch) in enumerate(robot.chamber_names):
+        pred[f"p_{ch}.{a}"], meas[f"p_{ch}.{a}"] = out_p[:, :, c].ravel(), exp.p[idx, c].ravel()
+    return ReplayResult(pred, meas, exp.t[idx].ravel())

@@ -1,0 +1,176 @@
+"""The doctor's outputs: report.json (DESIGN.md), report.md with plots, an .rrd with the
+measured, nominal and corrected traces, and a summary a person reads in ten seconds.
+All files are written atomically: an interrupted run leaves earlier reports intact."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from pneumatics.io import atomic_save, atomic_write_json, atomic_write_text
+from pneumatics.recording import Recording
+
+
+def summary(report: dict) -> str:
+    d = report["diagnostics"]
+    lines = [f"pneumasim doctor — {report['model']}: {d['train_seconds']:.0f} s fitted, "
+             f"{d['heldout_seconds']:.0f} s held out, {d['seconds']:.0f} s",
+             f"verdict: {report['verdict'].replace('_', ' ')}"]
+    for i, f in enumerate(report["findings"], 1):
+        where = " ".join(f"{k} {v}" for k, v in f["where"].items())
+        par = ", ".join(f"{k} = {v['value']:.3g} ± {v['stderr']:.1g}" for k, v in f["parameters"].items())
+        n = f["heldout_nrmse"]
+        alt = f"  (or {', '.join(f['alternatives'])}: not separable with these sensors)" if f["alternatives"] else ""
+        lines.append(f"  {i}. {f['effect']} at {where}: {par}{alt}")
+        win = ", ".join(f"{a:.0f}–{b:.0f} s" for a, b in f["windows"][:3]) or "spread out"
+        lines.append(f"     when: {f['regime']}; worst windows {win}")
+        if n["before"] is not None:
+            lines.append(f"     held-out NRMSE {f['heldout_channel']}: {n['before']:.3f} → {n['after']:.3f} "
+                         f"({100 * (1 - n['after'] / max(n['before'], 1e-12)):.0f} % better)")
+    for u in report["unexplained"]:
+        where = " ".join(f"{k} {v}" for k, v in u["where"].items())
+        lines.append(f"  unexplained at {where}, {u['regime']}: {100 * u['share_of_residual']:.0f} % of the residual")
+    if not report["findings"] and not report["unexplained"]:
+        lines.append("  the calibrated model explains the recordings down to their noise")
+    flags = d["calibration_flags"]
+    if flags:
+        lines.append(f"  calibration moved > 10 %: {', '.join(flags[:6])}{' ...' if len(flags) > 6 else ''}")
+    return "\n".join(lines)
+
+
+def write(report: dict, out: str | Path, robot=None, rerun: bool = True) -> Path:
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    replays = report.pop("_replays", None)
+    atomic_write_json(out / "report.json", _jsonable(report))
+    pngs = []
+    if replays:
+        pngs = _plots(report, replays, out)
+        if rerun and robot is not None:
+            _rrd(report, replays, out, robot)
+    atomic_write_text(out / "report.md", _markdown(report, pngs))
+    if replays:
+        report["_replays"] = replays
+    return out / "report.json"
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items() if not k.startswith("_")}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
+    return x
+
+
+def _plots(report, replays, out: Path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    made = []
+    base, final = replays["baseline"], replays["final"]
+    channels = [f["heldout_channel"] for f in report["findings"]]
+    channels += [f"p_{u['where']['chamber']}.{u['where']['actuator']}" for u in report["unexplained"] if "chamber" in u["where"]]
+    if not channels:  # show the worst channel anyway
+        nb = report["baseline"]["heldout_nrmse"]
+        channels = [max(nb, key=nb.get)]
+    for ch in dict.fromkeys(channels):
+        t = base.times
+        err = np.abs(base.predicted[ch] - base.measured[ch])
+        k = int(np.argmax(np.convolve(err, np.ones(100) / 100, mode="same")))
+        lo, hi = max(0, k - 150), min(t.size, k + 150)
+        fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+        scale = 1e5 if ch.startswith("p") else np.pi / 180
+        unit = "bar" if ch.startswith("p") else "deg"
+        axes[0].plot(t[lo:hi], base.measured[ch][lo:hi] / scale, "k.", ms=2, label="measured")
+        axes[0].plot(t[lo:hi], replays["nominal"].predicted[ch][lo:hi] / scale, lw=1, label="nominal model")
+        axes[0].plot(t[lo:hi], base.predicted[ch][lo:hi] / scale, lw=1, label="calibrated model")
+        axes[0].plot(t[lo:hi], final.predicted[ch][lo:hi] / scale, lw=1.2, label="with the findings")
+        axes[0].set_ylabel(f"{ch} [{unit}]")
+        axes[0].legend(fontsize=8)
+        axes[0].set_title(f"{ch}: held-out data, worst window (replays restarted every second)")
+        axes[1].plot(t[lo:hi], (base.predicted[ch] - base.measured[ch])[lo:hi] / scale, lw=1, label="calibrated")
+        axes[1].plot(t[lo:hi], (final.predicted[ch] - final.measured[ch])[lo:hi] / scale, lw=1, label="with the findings")
+        axes[1].axhline(0, color="gray", lw=0.5)
+        axes[1].set_ylabel(f"replay error [{unit}]")
+        axes[1].set_xlabel("time [s]")
+        axes[1].legend(fontsize=8)
+        fig.tight_layout()
+        name = f"worst_window_{ch.replace('.', '_')}.png"
+        atomic_save(out / name, lambda tmp: fig.savefig(tmp, dpi=100))
+        plt.close(fig)
+        made.append(name)
+    # NRMSE per channel before / after
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    nb, nf = report["baseline"]["heldout_nrmse"], report["after"]["heldout_nrmse"]
+    names = list(nb)
+    x = np.arange(len(names))
+    ax.bar(x - 0.2, [nb[n] for n in names], 0.4, label="calibrated model")
+    ax.bar(x + 0.2, [nf[n] for n in names], 0.4, label="with the findings")
+    ax.set_xticks(x, names, rotation=30, fontsize=8)
+    ax.set_ylabel("held-out NRMSE")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    atomic_save(out / "heldout_nrmse.png", lambda tmp: fig.savefig(tmp, dpi=100))
+    plt.close(fig)
+    made.append("heldout_nrmse.png")
+    return made
+
+
+def _rrd(report, replays, out: Path, robot):
+    from pneumatics.rerun_log import RerunLogger
+
+    logger = RerunLogger(robot, path=out / "doctor.rrd", recording_name=f"doctor {report['model']}")
+    for prefix, key, attr in (("measured", "baseline", "measured"), ("nominal", "nominal", "predicted"),
+                              ("calibrated", "baseline", "predicted"), ("corrected", "final", "predicted")):
+        r = replays[key]
+        logger.log_recording(Recording(r.times, getattr(r, attr), {}), prefix=prefix)
+    logger.close()
+
+
+def _markdown(report, pngs) -> str:
+    lines = [f"# pneumasim doctor report — {report['model']}", "", "```", summary(report), "```", ""]
+    lines += ["## Findings", ""]
+    if report["findings"]:
+        lines += ["| effect | where | regime | parameters | held-out NRMSE before → after | inclusion |",
+                  "| --- | --- | --- | --- | --- | --- |"]
+        for f in report["findings"]:
+            par = "; ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in f["parameters"].items())
+            n = f["heldout_nrmse"]
+            lines.append(f"| {f['effect']} | {json.dumps(f['where'])} | {f['regime']} | {par} | "
+                         f"{f['heldout_channel']}: {n['before']:.4f} → {n['after']:.4f} | {f['inclusion_probability']:.2f} |")
+        lines.append("")
+        for f in report["findings"]:
+            lines.append(f"- {f['evidence']}.")
+    else:
+        lines.append("No effect of the library improves the held-out fit significantly.")
+    lines += ["", "## Unexplained", ""]
+    if report["unexplained"]:
+        for u in report["unexplained"]:
+            lines.append(f"- {json.dumps(u['where'])}, {u['regime']}: {100 * u['share_of_residual']:.0f} % of the "
+                         f"held-out pressure residual; windows {u['windows']}. {u['evidence']}.")
+    else:
+        lines.append("Nothing above the noise floor is left unexplained.")
+    lines += ["", "## Calibration (fitted before any effect; 1 = nominal)", "", "| parameter | value |", "| --- | --- |"]
+    for k, v in report["calibrated"].items():
+        lines.append(f"| {k} | {v:.3f} |")
+    lines += ["", "## Held-out NRMSE per channel (coupled replays restarted every second)", "",
+              "| channel | nominal | calibrated | with findings |", "| --- | --- | --- | --- |"]
+    nn = report["baseline"]["nominal_heldout_nrmse"]
+    for k, v in report["baseline"]["heldout_nrmse"].items():
+        lines.append(f"| {k} | {nn[k]:.4f} | {v:.4f} | {report['after']['heldout_nrmse'][k]:.4f} |")
+    d = report["diagnostics"]
+    lines += ["", "## Diagnostics", "",
+              f"- pressure noise floor (from the data): {d['pressure_noise_pa']:.0f} Pa",
+              f"- condition numbers (scaled J^T J): chambers {d['calibration_condition']:.3g}, rigid body {d['rigid_body_condition']:.3g}",
+              f"- parameters at their bounds: {', '.join(d['parameters_at_bounds']) or 'none'}",
+              f"- Ljung-Box Q (lags 1-20) of the held-out pressure residuals: " +
+              ", ".join(f"{k} {v:.0f}" for k, v in d["ljung_box_q_heldout_pressure"].items()), ""]
+    for p in pngs:
+        lines.append(f"![{p}]({p})")
+    return "\n".join(lines) + "\n"
