@@ -38,13 +38,15 @@ MAX_REL_CHANGE = 0.25
 ERR_TOL = 1e-3
 
 
-def pressure_rate(p, volume, volume_rate, a_supply, a_exhaust, gas: GasCfg, supply_pa, room_pa):
-    """dp/dt [Pa/s] and its derivative d(dp/dt)/dp [1/s] for chambers (all arrays (n,))."""
+def pressure_rate(p, volume, volume_rate, a_supply, a_exhaust, gas: GasCfg, supply_pa, room_pa, extra_flow=0.0):
+    """dp/dt [Pa/s] and its derivative d(dp/dt)/dp [1/s] for chambers (all arrays (n,)).
+
+    ``extra_flow`` [kg/s] (leak effects) is held over the step and not in the Jacobian."""
     m_s, _, dms_dp = orifice_flow(a_supply, supply_pa, p, gas)
     m_e, dme_dp, _ = orifice_flow(a_exhaust, p, room_pa, gas)
     rt = gas.gas_constant_j_per_kg_k * gas.temperature_k
     n = gas.polytropic_exponent
-    rate = n / volume * (rt * (m_s - m_e) - p * volume_rate)
+    rate = n / volume * (rt * (m_s - m_e + extra_flow) - p * volume_rate)
     jac = n / volume * (rt * (dms_dp - dme_dp) - volume_rate)
     return rate, jac
 
@@ -99,20 +101,40 @@ def fluid_step(tables: FluidTables, p, command_v, prev_length, length, dt):
     Returns:
       (n_ch,) pressures at t + dt.
     """
-    volume, volume_rate = chamber_geometry(tables, prev_length, length, dt)
     a_s, a_e = valve_areas_table(tables, command_v)
-    return integrate(p, volume, volume_rate, a_s, a_e, tables.gas, tables.supply_pa, tables.room_pa, dt)
+    return fluid_step_areas(tables, p, a_s, a_e, prev_length, length, dt)
 
 
-def integrate(p, volume, volume_rate, a_supply, a_exhaust, gas: GasCfg, supply_pa, room_pa, dt):
+def fluid_step_areas(tables: FluidTables, p, a_supply, a_exhaust, prev_length, length, dt):
+    """:func:`fluid_step` with the valves' (n_ch,) supply and exhaust areas [m^2] given."""
+    a_s, a_e = a_supply, a_exhaust
+    volume, volume_rate = chamber_geometry(tables, prev_length, length, dt)
+    return integrate(p, volume, volume_rate, a_s, a_e, tables.gas, tables.supply_pa, tables.room_pa, dt,
+                     leak_flows(tables, p))
+
+
+def leak_flows(tables: FluidTables, p):
+    """(n_ch,) mass flows [kg/s] into each chamber from the leak effects: to the room
+    (external_leak) and across the piston a -> b (piston_leak).  Equal and opposite across a
+    piston, so a piston leak conserves the cylinder's air."""
+    m = -orifice_flow(tables.external_leak_m2, p, tables.room_pa, tables.gas)[0]
+    m_ab = orifice_flow(tables.piston_leak_m2, p[0::2], p[1::2], tables.gas)[0]
+    m[0::2] -= m_ab
+    m[1::2] += m_ab
+    return m
+
+
+def integrate(p, volume, volume_rate, a_supply, a_exhaust, gas: GasCfg, supply_pa, room_pa, dt, extra_flow=None):
     """Adaptive ROS2 over one step dt for chambers with volume and volume rate held.
 
     All arrays (n,); returns the (n,) pressures at t + dt.  A chamber whose pressure would
     change by more than MAX_REL_CHANGE in a sub-step is redone with twice as many sub-steps.
     """
+    extra_flow = np.zeros(p.size) if extra_flow is None else extra_flow
+
     def rhs(q, idx):
         return pressure_rate(q, volume[idx], volume_rate[idx], a_supply[idx], a_exhaust[idx], gas,
-                             supply_pa, room_pa)
+                             supply_pa, room_pa, extra_flow[idx])
 
     out = np.empty_like(p)
     todo = np.arange(p.size)

@@ -5,8 +5,12 @@ more than a 2-DOF ``mj_step``; this kernel costs ~1 us.  ``tests/test_kernel.py`
 against the reference to round-off.
 
 Table layouts (from :meth:`pneumatics.tables.FluidTables.packed`):
-  act  (n_act, 5): area_a, area_b, stroke, length_zero, MuJoCo actuator id (= ctrl index)
-  ch   (n_ch, 12): area, dead volume, is_a, actuator index, 8 valve columns
+  act  (n_act, 6): area_a, area_b, stroke, length_zero, MuJoCo actuator id (= ctrl index),
+                   piston (a -> b) leak area [m^2] (effect piston_leak, 0 = none)
+  ch   (n_ch, 13): area, dead volume, is_a, actuator index, 8 valve columns,
+                   leak area to the room [m^2] (effect external_leak, 0 = none)
+  fric (n_f, 5):   dof address, Coulomb [N m], extra breakaway [N m], Stribeck velocity
+                   [rad/s], viscous [N m s/rad] (effects coulomb_friction, stiction, viscous_friction)
   glob (12,):      R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply, room, dt,
                    slope of the linearised flow near r = 1
 """
@@ -58,12 +62,12 @@ def _orifice(area, p_from, p_to, glob):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def _rate(p, volume, volume_rate, a_s, a_e, glob):
+def _rate(p, volume, volume_rate, a_s, a_e, glob, m_extra):
     rt = glob[0] * glob[2]
     n = glob[3]
     m_s, _, dms = _orifice(a_s, glob[8], p, glob)
     m_e, dme, _ = _orifice(a_e, p, glob[9], glob)
-    return (n / volume * (rt * (m_s - m_e) - p * volume_rate),
+    return (n / volume * (rt * (m_s - m_e + m_extra) - p * volume_rate),
             n / volume * (rt * (dms - dme) - volume_rate))
 
 
@@ -87,7 +91,18 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
     module docstring.
     """
     dt = glob[10]
-    for i in range(ch.shape[0]):
+    n_ch = ch.shape[0]
+    m_extra = np.zeros(n_ch)
+    for i in range(n_ch):  # leaks, explicit over the step (their time constants >> dt)
+        if ch[i, 12] > 0.0:
+            m_x, _, _ = _orifice(ch[i, 12], p[i], glob[9], glob)
+            m_extra[i] -= m_x
+    for j in range(act.shape[0]):
+        if act[j, 5] > 0.0:
+            m_ab, _, _ = _orifice(act[j, 5], p[2 * j], p[2 * j + 1], glob)
+            m_extra[2 * j] -= m_ab
+            m_extra[2 * j + 1] += m_ab
+    for i in range(n_ch):
         j = int(ch[i, 3])
         stroke = act[j, 2]
         x0 = min(max(prev_length[j] - act[j, 3], 0.0), stroke)
@@ -99,7 +114,17 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
         else:
             volume = ch[i, 1] + ch[i, 0] * (stroke - x_mid)
             vrate = -ch[i, 0] * (x1 - x0) / dt
-        p[i] = _adaptive_ros2(p[i], volume, vrate, areas[i, 0], areas[i, 1], glob, dt)
+        p[i] = _adaptive_ros2(p[i], volume, vrate, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def write_friction(qvel, qfrc_applied, fric):
+    """qfrc_applied[dof] = friction torque at qvel (pneumatics.effects.friction)."""
+    for k in range(fric.shape[0]):
+        dof = int(fric[k, 0])
+        v = qvel[dof]
+        s = math.tanh(v / 0.01)
+        qfrc_applied[dof] = -(fric[k, 1] * s + fric[k, 2] * math.exp(-(v / fric[k, 3]) ** 2) * s + fric[k, 4] * v)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -113,7 +138,7 @@ def fluid_step_fast(p, areas, prev_length, length, ctrl, act, ch, glob):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def _adaptive_ros2(p0, volume, vrate, a_s, a_e, glob, dt):
+def _adaptive_ros2(p0, volume, vrate, a_s, a_e, glob, dt, m_extra):
     """One step dt of the adaptive ROS2 of chamber.integrate, for one chamber."""
     q = p0
     for level in range(MAX_HALVINGS + 1):
@@ -122,10 +147,10 @@ def _adaptive_ros2(p0, volume, vrate, a_s, a_e, glob, dt):
         q = p0
         ok = True
         for _ in range(n_sub):
-            f0, jac = _rate(q, volume, vrate, a_s, a_e, glob)
+            f0, jac = _rate(q, volume, vrate, a_s, a_e, glob, m_extra)
             denom = 1.0 - GAMMA * h * jac
             k1 = f0 / denom
-            f1, _j = _rate(q + h * k1, volume, vrate, a_s, a_e, glob)
+            f1, _j = _rate(q + h * k1, volume, vrate, a_s, a_e, glob, m_extra)
             k2 = (f1 - 2.0 * k1) / denom
             q_new = q + 1.5 * h * k1 + 0.5 * h * k2
             # reject: non-finite, too large a change, or the embedded first-order solution
@@ -147,13 +172,14 @@ def static_transient_fast(p0, volume, a_s, a_e, glob, dt, out):
         out[0, i] = p0[i]
     for k in range(out.shape[0] - 1):
         for i in range(n):
-            out[k + 1, i] = _adaptive_ros2(out[k, i], volume[i], 0.0, a_s[i], a_e[i], glob, dt)
+            out[k + 1, i] = _adaptive_ros2(out[k, i], volume[i], 0.0, a_s[i], a_e[i], glob, dt, 0.0)
 
 
 def pack(tables, ctrl_index, dt):
     """Kernel tables (act, ch, glob) from :class:`FluidTables`, ctrl indices and the step."""
     act, ch, glob = tables.packed()
-    act = np.ascontiguousarray(np.column_stack([act, np.asarray(ctrl_index, float)]))
+    act = np.ascontiguousarray(np.column_stack([act, np.asarray(ctrl_index, float), tables.piston_leak_m2]))
+    ch = np.ascontiguousarray(np.column_stack([ch, tables.external_leak_m2]))
     gas = tables.gas
     slope = gas.c_sub * _psi_ref(gas.laminar_ratio, gas.heat_capacity_ratio) / (1.0 - gas.laminar_ratio)
     return act, ch, np.concatenate([glob, [dt, slope]])
@@ -191,7 +217,7 @@ if _FUNCTIONS is not None:
 
     @numba.njit(cache=False, error_model="numpy")
     def run_steps_compiled(n, model_addr, data_addr, p, areas, prev_length, length, ctrl, act, ch,
-                           glob, qpos, qvel, acc):
+                           glob, qpos, qvel, acc, qfrc_applied, fric):
         """n physics steps without leaving compiled code (see Simulation.step for the scheme).
 
         Adds p (n_ch,), qpos (nq,) and qvel (nv,) at each of the n new instants into ``acc``
@@ -205,6 +231,7 @@ if _FUNCTIONS is not None:
                     prev_length[j] = length[int(act[j, 4])]
                 _accumulate(acc, p, qpos, qvel)
             write_forces(p, ctrl, act, glob)
+            write_friction(qvel, qfrc_applied, fric)
             _mj_step2(model_addr, data_addr)
         # catch up: actuator lengths at the new state, then the last step's pressures
         _mj_kinematics(model_addr, data_addr)

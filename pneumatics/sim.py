@@ -15,14 +15,16 @@ hand, call :meth:`Simulation.sync` (or :meth:`reset` with ``qpos=``).
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from .chamber import actuator_force, fluid_step
+from .chamber import actuator_force, fluid_step_areas
 from .tables import valve_areas_table
+from .effects.effect_set import EffectSet
 from .errors import PneumasimError
 from .kernel import fluid_step_fast, pack, run_steps_compiled
 from .robot import Robot
@@ -64,14 +66,23 @@ class Simulation:
       kernel: ``"fast"`` (compiled, default) or ``"reference"`` (numpy, readable, slow).
     """
 
-    def __init__(self, robot: Robot, kernel: str = "fast"):
+    def __init__(self, robot: Robot, kernel: str = "fast", effects: EffectSet | None = None):
         if kernel not in ("fast", "reference"):
             raise PneumasimError(f"unknown kernel {kernel!r}; valid: fast, reference")
         self.robot = robot
         self.model = robot.model
         self.data = mujoco.MjData(self.model)
         self.kernel = kernel
-        self.tables = robot.tables
+        self.effects = effects or EffectSet()
+        self.tables = dataclasses.replace(
+            robot.tables, external_leak_m2=self.effects.chamber_array(robot, "external_leak_m2"),
+            piston_leak_m2=self.effects.actuator_array(robot, "piston_leak_m2"))
+        self._valve_leak = self.effects.chamber_array(robot, "valve_leak_m2")
+        self._hysteresis = self.effects.chamber_array(robot, "valve_hysteresis_v")
+        self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
+        self._q_offset = self.effects.joint_array(robot, "angle_offset_rad")
+        self._fric = self.effects.friction_table(robot)
+        self.spool = np.zeros(self.tables.n_chambers)  # command the spool follows (hysteresis)
         n_ch = self.tables.n_chambers
         self.pressure = np.full(n_ch, self.tables.room_pa)
         self.command = np.array(self.tables.valve[:, 0])  # each valve's null
@@ -100,6 +111,7 @@ class Simulation:
             self.data.qpos[self._qadr] = qpos
         self.pressure[:] = self.tables.room_pa if pressure_pa is None else pressure_pa
         self.command[:] = self.tables.valve[:, 0]
+        self.spool[:] = self.command
         self._update_areas()
         self._clip_warned = False
         self.sums[:] = 0.0
@@ -117,9 +129,9 @@ class Simulation:
         return float(self.model.opt.timestep)
 
     def observe(self) -> Observation:
-        """Exact (noise-free, instantaneous) sensor values now."""
-        return Observation(self.time, self.data.qpos[self._qadr].copy(),
-                           self.data.qvel[self._dadr].copy(), self.pressure.copy())
+        """Noise-free, instantaneous sensor values now (with any sensor-offset effects)."""
+        return Observation(self.time, self.data.qpos[self._qadr] + self._q_offset,
+                           self.data.qvel[self._dadr].copy(), self.pressure + self._p_offset)
 
     def forces(self) -> np.ndarray:
         """(n_act,) actuator forces [N] (torques [N m] for vanes) from the current pressures."""
@@ -146,10 +158,15 @@ class Simulation:
                           f"at t = {self.time:.3f} s are clipped; warned once per run",
                           CommandClippedWarning, stacklevel=2)
         np.clip(u, lo, hi, out=self.command)
+        # valve_hysteresis: the spool follows the command through a play of +-h
+        self.spool[:] = np.minimum(np.maximum(self.spool, self.command - self._hysteresis), self.command + self._hysteresis)
         self._update_areas()
 
     def _update_areas(self):
-        a_s, a_e = valve_areas_table(self.tables, self.command)
+        a_s, a_e = valve_areas_table(self.tables, self.spool)
+        if self._valve_leak.any():  # valve_leak: the spool does not shut near null
+            g = self._valve_leak * np.exp(-((self.spool - self.tables.valve[:, 0]) / self.effects.valve_leak_width_v) ** 2)
+            a_s, a_e = a_s + g, a_e + g
         self.areas[:, 0], self.areas[:, 1] = a_s, a_e
 
     # -- stepping ------------------------------------------------------------------------
@@ -163,7 +180,8 @@ class Simulation:
         if self.kernel == "fast" and run_steps_compiled is not None:
             act, ch, glob = self._packed
             run_steps_compiled(n, m._address, d._address, self.pressure, self.areas, self._prev_length,
-                               d.actuator_length, d.ctrl, act, ch, glob, d.qpos, d.qvel, self.sums)
+                               d.actuator_length, d.ctrl, act, ch, glob, d.qpos, d.qvel, self.sums,
+                               d.qfrc_applied, self._fric)
             return
         for k in range(n):
             mujoco.mj_step1(m, d)
@@ -171,6 +189,7 @@ class Simulation:
                 self._fluid_update()
                 self._accumulate()
             d.ctrl[self._ids] = actuator_force(self.tables, self.pressure)
+            self._apply_friction()
             mujoco.mj_step2(m, d)
         self.sync()
         self._accumulate()
@@ -185,6 +204,12 @@ class Simulation:
         self._fluid_update()
         d.ctrl[self._ids] = actuator_force(self.tables, self.pressure)
 
+    def _apply_friction(self):
+        from .effects.friction import friction_torque
+        for dof, fc, fs, vs, b in self._fric:
+            v = self.data.qvel[int(dof)]
+            self.data.qfrc_applied[int(dof)] = friction_torque(v, fc, fs, vs, b)
+
     def _fluid_update(self):
         length = self.data.actuator_length[self._ids]
         if self.kernel == "fast":
@@ -192,7 +217,7 @@ class Simulation:
             fluid_step_fast(self.pressure, self.areas, self._prev_length, self.data.actuator_length,
                             self.data.ctrl, act, ch, glob)
         else:
-            self.pressure[:] = fluid_step(self.tables, self.pressure, self.command, self._prev_length,
+            self.pressure[:] = fluid_step_areas(self.tables, self.pressure, self.areas[:, 0], self.areas[:, 1], self._prev_length,
                                           length, self.dt)
             self._prev_length[:] = length
 
@@ -212,5 +237,5 @@ class Simulation:
         mean = self.sums / self._n_summed
         self.sums[:] = 0.0
         self._n_summed = 0
-        return Observation(self.time, mean[n_ch:n_ch + nq][self._qadr],
-                           mean[n_ch + nq:][self._dadr], mean[:n_ch])
+        return Observation(self.time, mean[n_ch:n_ch + nq][self._qadr] + self._q_offset,
+                           mean[n_ch + nq:][self._dadr], mean[:n_ch] + self._p_offset)

@@ -30,6 +30,14 @@ class FluidTables:
     is_a: np.ndarray            # (n_ch,) bool
     actuator_of_chamber: np.ndarray  # (n_ch,) int
     valve: np.ndarray           # (n_ch, 8) valve rows, pneumatics.valve.VALVE_COLUMNS
+    external_leak_m2: np.ndarray = None  # (n_ch,) leak to the room (effect), 0 = none
+    piston_leak_m2: np.ndarray = None    # (n_act,) leak across the piston a -> b (effect)
+
+    def __post_init__(self):
+        if self.external_leak_m2 is None:
+            self.external_leak_m2 = np.zeros(self.area.size)
+        if self.piston_leak_m2 is None:
+            self.piston_leak_m2 = np.zeros(self.area_a.size)
 
     @property
     def n_chambers(self) -> int:

@@ -14,7 +14,7 @@ def horizontal_elbow_sim() -> Simulation:
     robot = load_robot("arm2")
     sim = Simulation(robot)
     sim.model.opt.gravity[:] = (-9.81, 0.0, 0.0)
-    sim.data.eq_active[sim.model.equality("brace_shoulder").id] = 1
+    sim.model.eq_active0[sim.model.equality("brace_shoulder").id] = 1  # survives reset()
     return sim
 
 

@@ -69,7 +69,7 @@ def test_step_refinement_is_rare_at_1ms(rng):
     calls = {"steps": 0, "refined": 0}
     original = chamber.integrate
 
-    def counting(p, volume, volume_rate, a_s, a_e, gas, ps, pr, dt):
+    def counting(p, volume, volume_rate, a_s, a_e, gas, ps, pr, dt, extra_flow=None):
         calls["steps"] += 1
         one = []
         for i in range(p.size):
@@ -77,7 +77,7 @@ def test_step_refinement_is_rare_at_1ms(rng):
                 y, volume[i:i + 1], volume_rate[i:i + 1], a_s[i:i + 1], a_e[i:i + 1], gas, ps, pr))
             one.append(bool(np.abs(q - p[i]) > chamber.MAX_REL_CHANGE * p[i] or err > chamber.ERR_TOL * p[i]))
         calls["refined"] += sum(one)
-        return original(p, volume, volume_rate, a_s, a_e, gas, ps, pr, dt)
+        return original(p, volume, volume_rate, a_s, a_e, gas, ps, pr, dt, extra_flow)
 
     chamber.integrate = counting
     try:

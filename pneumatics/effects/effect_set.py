@@ -1,0 +1,72 @@
+"""Effects switched on in a :class:`pneumatics.sim.Simulation` (or found by the doctor).
+
+Places are named like recording columns: a joint (``"elbow"``), an actuator (``"elbow"``) or
+a chamber (``"elbow.b"``).  Every value carries its unit in its name.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import UnknownNameError
+
+
+@dataclass
+class EffectSet:
+    friction: dict = field(default_factory=dict)
+    """joint -> {"coulomb_nm", "stiction_extra_nm", "stribeck_rad_s", "viscous_nm_s"} (coulomb_friction, stiction, viscous_friction)"""
+    valve_leak_m2: dict = field(default_factory=dict)
+    """chamber -> extra area open both ways near null [m^2] (valve_leak; Gaussian of width valve_leak_width_v)"""
+    valve_leak_width_v: float = 0.6
+    external_leak_m2: dict = field(default_factory=dict)
+    """chamber -> effective area of a leak to the room [m^2] (external_leak)"""
+    piston_leak_m2: dict = field(default_factory=dict)
+    """actuator -> effective area of a leak across the piston [m^2] (piston_leak)"""
+    valve_hysteresis_v: dict = field(default_factory=dict)
+    """chamber -> half-width of the play between command and spool [V] (valve_hysteresis)"""
+    pressure_offset_pa: dict = field(default_factory=dict)
+    """chamber -> sensor reads true + offset [Pa] (pressure_sensor_offset)"""
+    angle_offset_rad: dict = field(default_factory=dict)
+    """joint -> sensor reads true + offset [rad] (angle_sensor_offset)"""
+
+    def chamber_array(self, robot, attr: str) -> np.ndarray:
+        names = [f"{a}.{c}" for a, c in robot.chamber_names]
+        out = np.zeros(len(names))
+        for key, v in getattr(self, attr).items():
+            if key not in names:
+                raise UnknownNameError("chamber", key, names)
+            out[names.index(key)] = v
+        return out
+
+    def actuator_array(self, robot, attr: str) -> np.ndarray:
+        out = np.zeros(len(robot.actuator_names))
+        for key, v in getattr(self, attr).items():
+            if key not in robot.actuator_names:
+                raise UnknownNameError("actuator", key, robot.actuator_names)
+            out[robot.actuator_names.index(key)] = v
+        return out
+
+    def joint_array(self, robot, attr: str) -> np.ndarray:
+        out = np.zeros(len(robot.joint_names))
+        for key, v in getattr(self, attr).items():
+            if key not in robot.joint_names:
+                raise UnknownNameError("joint", key, robot.joint_names)
+            out[robot.joint_names.index(key)] = v
+        return out
+
+    def friction_table(self, robot) -> np.ndarray:
+        """(n_f, 5): dof address, Coulomb, extra breakaway, Stribeck velocity, viscous."""
+        rows = []
+        for joint, f in self.friction.items():
+            if joint not in robot.joint_names:
+                raise UnknownNameError("joint", joint, robot.joint_names)
+            dof = robot.dof_index[robot.joint_names.index(joint)]
+            rows.append([dof, f.get("coulomb_nm", 0.0), f.get("stiction_extra_nm", 0.0),
+                         f.get("stribeck_rad_s", 0.1), f.get("viscous_nm_s", 0.0)])
+        return np.array(rows, float).reshape(-1, 5)
+
+    @property
+    def empty(self) -> bool:
+        return not any((self.friction, self.valve_leak_m2, self.external_leak_m2, self.piston_leak_m2,
+                        self.valve_hysteresis_v, self.pressure_offset_pa, self.angle_offset_rad))

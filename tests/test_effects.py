@@ -1,0 +1,122 @@
+"""Physics of the effect models, inside the simulator."""
+import dataclasses
+
+import mujoco
+import numpy as np
+
+from pneumatics.effects.effect_set import EffectSet
+from pneumatics.effects.friction import friction_torque
+from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play
+from pneumatics.robot import load_robot
+from pneumatics.sim import Simulation
+
+
+def leak_free(robot, n=1.0):
+    fluid = robot.fluid
+    acts = tuple(dataclasses.replace(a, valve_a=dataclasses.replace(a.valve_a, null_leak_fraction=0.0),
+                                     valve_b=dataclasses.replace(a.valve_b, null_leak_fraction=0.0))
+                 for a in fluid.actuators)
+    return robot.with_fluid(dataclasses.replace(fluid, actuators=acts,
+                                                gas=dataclasses.replace(fluid.gas, polytropic_exponent=n)))
+
+
+def coast(robot, effects):
+    sim = Simulation(robot, effects=effects)
+    sim.model.opt.gravity[:] = 0
+    sim.model.eq_active0[sim.model.equality("brace_shoulder").id] = 1
+    sim.model.dof_damping[:] = 0
+    sim.reset(pressure_pa=robot.tables.room_pa)
+    sim.set_command([5, 5, 0, 0])  # elbow chambers vented
+    sim.data.qvel[1] = 2.0
+    mujoco.mj_forward(sim.model, sim.data)
+    M = np.zeros((2, 2))
+    mujoco.mj_fullM(sim.model, sim.data, M)
+    sim.step(200)
+    return (2.0 - sim.data.qvel[1]) / sim.time, M[1, 1]
+
+
+def test_coulomb_friction_decelerates_a_free_joint_at_fc_over_inertia():
+    """Closed form: Coulomb friction F_c adds F_c / I to a coasting joint's deceleration
+    (measured against the same coast without friction: the vented chambers' air brakes too)."""
+    robot = load_robot("arm2")
+    fc = 0.05
+    with_f, inertia = coast(robot, EffectSet(friction={"elbow": {"coulomb_nm": fc}}))
+    without, _ = coast(robot, EffectSet())
+    assert abs((with_f - without) - fc / inertia) < 0.02 * fc / inertia
+
+
+def test_friction_law_signs_and_stribeck_peak():
+    v = np.array([-1.0, -0.05, 0.0, 0.05, 1.0])
+    tau = friction_torque(v, coulomb_nm=0.1, stiction_extra_nm=0.05, stribeck_rad_s=0.1, viscous_nm_s=0.01)
+    assert np.all(np.sign(tau[v != 0]) == -np.sign(v[v != 0])) and tau[2] == 0.0
+    assert abs(tau[3]) > abs(tau[4]) - 0.01 * 1.0  # breakaway above Coulomb at low speed
+
+
+def test_piston_leak_conserves_the_cylinders_air():
+    robot = leak_free(load_robot("arm2"), n=1.0)
+    sim = Simulation(robot, effects=EffectSet(piston_leak_m2={"elbow": 5e-9}))
+    sim.model.opt.gravity[:] = 0
+    sim.reset(pressure_pa=[3e5, 3e5, 6e5, 2e5])
+    tab = sim.tables
+    x = sim.data.actuator_length[1] - tab.length_zero[1]
+    v = np.array([tab.dead_volume[2] + tab.area_a[1] * x, tab.dead_volume[3] + tab.area_b[1] * (tab.stroke[1] - x)])
+    sim.model.eq_active0[sim.model.equality("brace_shoulder").id] = 1
+    mass0 = sim.pressure[2:] @ v
+    sim.model.dof_damping[:] = 1e6  # hold the joints: static volumes
+    sim.step(2000)
+    mujoco.mj_forward(sim.model, sim.data)
+    x = sim.data.actuator_length[1] - tab.length_zero[1]
+    v = np.array([tab.dead_volume[2] + tab.area_a[1] * x, tab.dead_volume[3] + tab.area_b[1] * (tab.stroke[1] - x)])
+    assert sim.pressure[2] < 5.5e5 and sim.pressure[3] > 2.5e5  # it leaked a -> b
+    assert abs(sim.pressure[2:] @ v / mass0 - 1) < 2e-3
+
+
+def test_external_leak_vents_a_closed_chamber_to_room_and_not_below():
+    robot = leak_free(load_robot("arm2"))
+    sim = Simulation(robot, effects=EffectSet(external_leak_m2={"shoulder.a": 6e-8}))
+    sim.model.dof_damping[:] = 1e6  # hold the joints: static volumes
+    sim.reset(pressure_pa=[6e5, 6e5, 6e5, 6e5])
+    trace = []
+    for _ in range(40):
+        sim.step(100)
+        trace.append(sim.pressure.copy())
+    trace = np.array(trace)
+    assert np.all(np.diff(trace[:, 0]) <= 1.0) and trace[-1, 0] < 2e5 and trace[-1, 0] > 0.99e5
+    assert abs(trace[-1, 2] - 6e5) < 0.2e5  # the other cylinder keeps its air
+
+
+def test_play_operator_minor_loops_close_and_major_loop_width():
+    h = 0.3
+    up = np.linspace(4, 6, 50)
+    down = up[::-1]
+    y = play(np.concatenate([up, down]), h)
+    assert abs((y[49] - up[-1]) + h) < 1e-12           # lags the rising command by h
+    assert abs(y[-1] - (down[-1] + h)) < 1e-12         # leads the falling one by h
+    wiggle = 5.0 + 0.2 * np.sin(np.linspace(0, 20, 200))  # reversals smaller than 2h
+    y = play(wiggle, h, u0=5.0)
+    assert np.ptp(y) == 0.0                            # minor loop: the spool does not move
+
+
+def test_lag_and_delay_are_what_they_claim():
+    u = np.r_[np.zeros(10), np.ones(1000)]
+    y = first_order_lag(u, 0.02, 1e-3)
+    assert abs(y[10 + 20] - (1 - np.exp(-21 / 20))) < 0.02
+    d = dead_time(u, 0.005, 1e-3)
+    assert d[14] == 0.0 and d[15] == 1.0
+
+
+def test_valve_hysteresis_in_the_simulator_delays_the_spool():
+    robot = load_robot("arm2")
+    sim = Simulation(robot, effects=EffectSet(valve_hysteresis_v={"elbow.b": 0.4}))
+    sim.set_command([5, 5, 5, 5.3])
+    assert sim.spool[3] == 5.0          # within the play
+    sim.set_command([5, 5, 5, 6.0])
+    assert abs(sim.spool[3] - 5.6) < 1e-12
+
+
+def test_sensor_offsets_show_in_observations_only():
+    robot = load_robot("arm2")
+    sim = Simulation(robot, effects=EffectSet(pressure_offset_pa={"elbow.a": 5000.0}, angle_offset_rad={"shoulder": 0.01}))
+    sim.reset(pressure_pa=4e5)
+    obs = sim.observe()
+    assert obs.p[2] == 4e5 + 5000.0 and obs.q[0] == 0.01 and sim.pressure[2] == 4e5
