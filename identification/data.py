@@ -36,6 +36,7 @@ class Experiment:
     p: np.ndarray            # (N, C) measured pressures [Pa]
     u: np.ndarray            # (N, C) valve commands [V]
     averaged: bool
+    p_at_t: np.ndarray = field(default=None)       # (N, C) pressures at the sample times t
     fine_t: np.ndarray = field(default=None)       # (F,) 1 ms grid from t[0]
     fine_length: np.ndarray = field(default=None)  # (F, n_act) actuator lengths on the grid
     fine_q: np.ndarray = field(default=None)       # (F, J)
@@ -76,19 +77,29 @@ def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None) -> Ex
     qd = np.column_stack([x[1] for x in d])
     qdd = np.column_stack([x[2] for x in d])
     exp = Experiment(robot, rec, t, ts, q, q_s, qd, qdd, p, u, averaged)
+    # pressures at the sample instants (window starts of the replays): a light smoothing
+    # spline through the DAQ means, evaluated half a period later than they stand
+    exp.p_at_t = np.column_stack([_light_spline(ts, p[:, c])(t) for c in range(p.shape[1])])
     _fine_geometry(exp)
     return exp
 
 
-def _fine_geometry(exp: Experiment):
-    """Actuator lengths on the 1 ms grid from the smoothed angles (cubic interpolation of q_s)."""
-    from scipy.interpolate import CubicSpline
+def _light_spline(t, y, fraction: float = 0.5):
+    """A smoothing spline leaving residuals at ``fraction`` of the noise level: it removes
+    most of the noise but, unlike a spline at the full noise level, hardly attenuates fast
+    motions (which would bias the chamber stiffness and so the fitted dead volumes)."""
+    from scipy.interpolate import make_smoothing_spline
 
+    from .smoothing import discrepancy_lambda, noise_sd
+    return make_smoothing_spline(t, y, lam=discrepancy_lambda(t, y, fraction * noise_sd(y)))
+
+
+def _fine_geometry(exp: Experiment):
+    """Actuator lengths on the 1 ms grid from lightly smoothed angles."""
     robot = exp.robot
     n_f = int(round((exp.t[-1] - exp.t[0]) / FINE_DT)) + 1
     fine_t = exp.t[0] + np.arange(n_f) * FINE_DT
-    cs = CubicSpline(exp.t_sensor, exp.q_s, axis=0, extrapolate=True)
-    fine_q = cs(fine_t)
+    fine_q = np.column_stack([_light_spline(exp.t_sensor, exp.q[:, j])(fine_t) for j in range(exp.q.shape[1])])
     exp.fine_t, exp.fine_q = fine_t, fine_q
     exp.fine_length = actuator_lengths(robot, fine_q)
 

@@ -161,10 +161,9 @@ class ChamberModel:
 
 
 def initial_pressure(exp: Experiment, k0, mods: PneumaticMods):
-    """Pressures at sample times t[k0] (W, C): the DAQ mean stands half a period back, so
-    extrapolate it half a period; remove a modelled sensor offset."""
-    p = exp.p
-    p0 = p[k0] + 0.5 * (p[k0] - p[k0 - 1]) if exp.averaged else p[k0].copy()
+    """Pressures at sample times t[k0] (W, C) from the light smoothing spline of the measured
+    pressures (the DAQ means stand half a period earlier); remove a modelled sensor offset."""
+    p0 = exp.p_at_t[k0].copy()
     if mods.sensor_offset_pa is not None:
         p0 = p0 - mods.sensor_offset_pa
     return p0

@@ -62,6 +62,8 @@ def test_demo_writes_recording_plot_and_rerun_file(out):
     m = run("demo", out)
     d = out / "demo"
     assert m["rms_err_deg_shoulder"] < 6 and m["rms_err_deg_elbow"] < 6
+    assert m["doctor_correct"] == 1, m["doctor_named"]  # the main job ends with the doctor right
+    assert (d / "doctor" / "report.json").is_file() and (d / "doctor_case" / "mystery.truth.json").is_file()
     for f in ("arm2_demo.csv", "arm2_demo.png", "demo.rrd", "metrics.json"):
         assert (d / f).is_file(), f
     assert json.loads((d / "metrics.json").read_text()) == m
@@ -80,3 +82,13 @@ def test_unknown_scenario_is_one_clear_line():
     assert r.returncode != 0
     assert r.stderr.strip().startswith("pneumasim: error: unknown scenario 'arm3_nothing'; valid: ")
     assert "Traceback" not in r.stderr
+
+
+def test_doctor_blind_benchmark_fast(out):
+    """Three fresh cases (null, Coulomb friction, valve hysteresis), 30 s + 15 s each."""
+    m = run("doctor_blind_benchmark", out)
+    assert m["cases"] == 3
+    assert m["null_false_discovery_rate"] == 0.0
+    assert m["effect_accuracy"] >= 0.5 and m["location_accuracy"] >= 0.5
+    assert m["median_heldout_nrmse_reduction"] >= 0.3
+    assert (out / "doctor_blind_benchmark" / "confusion_matrix.png").is_file()

@@ -1,0 +1,125 @@
+"""Recordings of arm2 with hidden physics, made by pneumasim itself: the doctor's test cases.
+
+A case = a seed, at most a couple of effects (family, place, parameters), small errors in the
+nominal parameters (valve areas, dead volumes, link masses) and sensor noise; arm2 tracks a
+hand-moved reference under PIDF; a 60 s recording to fit and a different 30 s one held out.
+The doctor sees only the CSV files; the truth is written beside them.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from controllers.pid import ARM2_PIDF
+from controllers.reference import hand_moved
+from pneumatics.effects.effect_set import EffectSet
+from pneumatics.io import atomic_write_json
+from pneumatics.robot import load_robot
+from pneumatics.runner import run
+from pneumatics.sim import Simulation
+
+CHAMBERS = ["shoulder.a", "shoulder.b", "elbow.a", "elbow.b"]
+JOINTS = ["shoulder", "elbow"]
+
+#: family -> (place kind, parameter draw) with magnitudes a real robot shows
+FAMILIES = {
+    "coulomb_friction": ("joint", lambda r: {"friction": {"coulomb_nm": r.uniform(0.04, 0.10)}}),
+    "stiction": ("joint", lambda r: {"friction": {"coulomb_nm": r.uniform(0.02, 0.04),
+                                                  "stiction_extra_nm": r.uniform(0.06, 0.12),
+                                                  "stribeck_rad_s": r.uniform(0.05, 0.15)}}),
+    "viscous_friction": ("joint", lambda r: {"friction": {"viscous_nm_s": r.uniform(0.06, 0.15)}}),
+    "valve_hysteresis": ("chamber", lambda r: {"valve_hysteresis_v": r.uniform(0.2, 0.45)}),
+    "valve_leak": ("chamber", lambda r: {"valve_leak_m2": r.uniform(2e-8, 5e-8)}),
+    "external_leak": ("chamber", lambda r: {"external_leak_m2": r.uniform(1e-8, 3e-8)}),
+    "piston_leak": ("actuator", lambda r: {"piston_leak_m2": r.uniform(1e-8, 3e-8)}),
+    "pressure_sensor_offset": ("chamber", lambda r: {"pressure_offset_pa": r.choice([-1, 1]) * r.uniform(8e3, 2e4)}),
+    "angle_sensor_offset": ("joint", lambda r: {"angle_offset_rad": r.choice([-1, 1]) * r.uniform(0.03, 0.06)}),
+}
+
+
+def draw_effect(family: str, rng: np.random.Generator) -> tuple[dict, EffectSet]:
+    kind, draw = FAMILIES[family]
+    place = {"joint": JOINTS, "chamber": CHAMBERS, "actuator": JOINTS}[kind][rng.integers(0, 2 if kind != "chamber" else 4)]
+    params = draw(rng)
+    eff = EffectSet()
+    (attr, value), = params.items()
+    getattr(eff, attr)[place] = value
+    if kind == "chamber":
+        a, c = place.split(".")
+        where = {"actuator": a, "chamber": c}
+    elif kind == "actuator":
+        where = {"actuator": place}
+    else:
+        where = {"joint": place}
+    return {"family": family, "where": where, "parameters": _plain(params)}, eff
+
+
+def merge(effects: list[EffectSet]) -> EffectSet:
+    out = EffectSet()
+    for e in effects:
+        for f in dataclasses.fields(EffectSet):
+            v = getattr(e, f.name)
+            if isinstance(v, dict):
+                getattr(out, f.name).update(v)
+    return out
+
+
+def perturbed_robot(rng: np.random.Generator, fraction: float):
+    """arm2 with each valve area, dead volume and link mass off by up to +-fraction."""
+    robot = load_robot("arm2")
+    f = lambda: float(1 + rng.uniform(-fraction, fraction))  # noqa: E731
+    acts = []
+    factors = {}
+    for a in robot.fluid.actuators:
+        va = dataclasses.replace(a.valve_a, supply_area_max_m2=a.valve_a.supply_area_max_m2 * f(),
+                                 exhaust_area_max_m2=a.valve_a.exhaust_area_max_m2 * f())
+        vb = dataclasses.replace(a.valve_b, supply_area_max_m2=a.valve_b.supply_area_max_m2 * f(),
+                                 exhaust_area_max_m2=a.valve_b.exhaust_area_max_m2 * f())
+        acts.append(dataclasses.replace(a, valve_a=va, valve_b=vb, dead_volume_a_m3=a.dead_volume_a_m3 * f(),
+                                        dead_volume_b_m3=a.dead_volume_b_m3 * f()))
+    robot = robot.with_fluid(dataclasses.replace(robot.fluid, actuators=tuple(acts)))
+    for b in ("upper_link", "forearm"):
+        s = f()
+        factors[f"mass_and_inertia.{b}"] = s
+        i = robot.model.body(b).id
+        robot.model.body_mass[i] *= s
+        robot.model.body_inertia[i] *= s
+    return robot, factors
+
+
+def make_case(out: Path, seed: int, families: list[str], *, fraction: float = 0.03, seconds: float = 60.0,
+              heldout_seconds: float = 30.0, name: str | None = None) -> dict:
+    """Write <name>.csv, <name>_heldout.csv and <name>.truth.json into ``out``; return the truth."""
+    rng = np.random.default_rng(seed)
+    name = name or f"case_{seed}"
+    truths, effs = [], []
+    for fam in families:
+        t, e = draw_effect(fam, rng)
+        truths.append(t)
+        effs.append(e)
+    effects = merge(effs)
+    robot, factors = perturbed_robot(rng, fraction)
+    paths = {}
+    for part, dur, s in (("", seconds, 2 * seed + 1), ("_heldout", heldout_seconds, 2 * seed + 2)):
+        ref = hand_moved(robot.joint_names, robot.joint_range(), dur, seed=s)
+        sim = Simulation(robot, effects=effects)
+        sim.reset(qpos=ref.reference(0.0), pressure_pa=4.5e5)
+        warm = ARM2_PIDF.build(ref, robot.tables.valve[:, 0])
+        run(sim, warm, 1.0, seed=s)  # pre-roll: pressures settle under control
+        sim.data.time = 0.0
+        rec = run(sim, ARM2_PIDF.build(ref, robot.tables.valve[:, 0]), dur, seed=s + 7)
+        rec.meta = {"model": "arm2", "rate_hz": 100.0, "daq_averaging": True}
+        path = Path(out) / f"{name}{part}.csv"
+        rec.to_csv(path)
+        paths[part.strip("_") or "main"] = str(path)
+    truth = {"case": name, "seed": seed, "effects": truths, "families": families or ["none"],
+             "parameter_factors": factors, "perturbation_fraction": fraction, "recordings": paths}
+    atomic_write_json(Path(out) / f"{name}.truth.json", truth)
+    return truth
+
+
+def _plain(d):
+    return json.loads(json.dumps(d, default=float))

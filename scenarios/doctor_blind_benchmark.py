@@ -1,0 +1,131 @@
+"""The doctor on concealed effects: recordings made with one hidden effect drawn at random
+per case (type, place, parameters from a seed), small errors in the nominal parameters and
+sensor noise, plus null cases and two-effect cases.  The doctor sees only the CSV files;
+its answers are compared with the truth.
+
+Metrics: effect_accuracy (the named families are exactly the hidden ones, an isolability
+alternative counting), location_accuracy (where, among cases with the family right),
+median_heldout_nrmse_reduction (on the finding's channel), null_false_discovery_rate,
+seconds_per_case, and concealed_fraction (cases whose calibrated model without the effect
+still reaches held-out R^2 >= 0.9 on every channel).
+"""
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from identification.doctor import diagnose
+from pneumatics.io import atomic_write_json
+from pneumatics.recording import read_csv
+from pneumatics.robot import load_robot
+
+from ._cases import FAMILIES, make_case
+from .common import main, plt
+
+SUMMARY = "mismatch finder on concealed effects: confusion matrix, accuracy, false discoveries"
+
+
+def plan(fast: bool):
+    if fast:
+        return [(101, []), (102, ["coulomb_friction"]), (103, ["valve_hysteresis"])], 30.0, 15.0
+    cases = []
+    seed = 1000
+    for fam in FAMILIES:
+        for _ in range(3):
+            cases.append((seed, [fam]))
+            seed += 1
+    for _ in range(3):
+        cases.append((seed, []))
+        seed += 1
+    for pair in (["coulomb_friction", "valve_hysteresis"], ["external_leak", "angle_sensor_offset"],
+                 ["valve_leak", "viscous_friction"]):
+        cases.append((seed, pair))
+        seed += 1
+    return cases, 60.0, 30.0
+
+
+def judge(truth: dict, report: dict) -> dict:
+    named = {}
+    for f in report["findings"]:
+        named.setdefault(f["effect"], []).append(f)
+    true_fams = [e["family"] for e in truth["effects"]]
+    ok_fam, ok_loc = [], []
+    for e in truth["effects"]:
+        hits = [f for f in report["findings"] if f["effect"] == e["family"] or e["family"] in f.get("alternatives", [])]
+        ok_fam.append(bool(hits))
+        ok_loc.append(any(f["where"] == e["where"] for f in hits))
+    extra = [f["effect"] for f in report["findings"]
+             if f["effect"] not in true_fams and not set(f.get("alternatives", [])) & set(true_fams)]
+    return {"family_ok": all(ok_fam) and not extra, "location_ok": all(ok_loc), "extra": extra,
+            "named": [f["effect"] for f in report["findings"]]}
+
+
+def run(ctx):
+    cases, seconds, held_s = plan(ctx.fast)
+    robot = load_robot("arm2")
+    rows = []
+    work = Path(tempfile.mkdtemp(prefix="blind_"))
+    for seed, fams in cases:
+        truth = make_case(work, seed, fams, seconds=seconds, heldout_seconds=held_s)
+        t0 = time.perf_counter()
+        report = diagnose(robot, [read_csv(truth["recordings"]["main"])], [read_csv(truth["recordings"]["heldout"])])
+        secs = time.perf_counter() - t0
+        report.pop("_replays", None)
+        j = judge(truth, report)
+        red = [1 - f["heldout_nrmse"]["after"] / f["heldout_nrmse"]["before"] for f in report["findings"]
+               if f["heldout_nrmse"]["before"]]
+        rows.append({"seed": seed, "families": fams or ["none"], "where": [e["where"] for e in truth["effects"]],
+                     "verdict": report["verdict"], "named": j["named"], "family_ok": j["family_ok"],
+                     "location_ok": j["location_ok"], "nrmse_reduction": red, "seconds": secs,
+                     "min_r2_calibrated": min(report["baseline"]["heldout_r2"].values()),
+                     "unexplained": [u["where"] for u in report["unexplained"]]})
+        print(f"  case {seed} {fams or ['none']}: named {j['named'] or ['nothing']}"
+              f"{' + unexplained' if report['unexplained'] else ''} ({secs:.0f} s)")
+    atomic_write_json(ctx.out / "cases.json", rows)
+    effect_rows = [r for r in rows if r["families"] != ["none"]]
+    null_rows = [r for r in rows if r["families"] == ["none"]]
+    fam_ok = [r for r in effect_rows if r["family_ok"]]
+    reductions = [x for r in effect_rows for x in r["nrmse_reduction"]]
+    _confusion(rows, ctx)
+    return {
+        "cases": len(rows),
+        "effect_accuracy": len(fam_ok) / max(len(effect_rows), 1),
+        "location_accuracy": sum(r["location_ok"] for r in fam_ok) / max(len(fam_ok), 1),
+        "median_heldout_nrmse_reduction": float(np.median(reductions)) if reductions else 0.0,
+        "null_false_discovery_rate": sum(r["verdict"] != "no_significant_mismatch" for r in null_rows) / max(len(null_rows), 1),
+        "seconds_per_case": float(np.mean([r["seconds"] for r in rows])),
+        "concealed_fraction": float(np.mean([r["min_r2_calibrated"] >= 0.9 for r in effect_rows])) if effect_rows else 1.0,
+    }
+
+
+def _confusion(rows, ctx):
+    fams = list(FAMILIES) + ["none"]
+    cols = fams + ["other"]
+    mat = np.zeros((len(fams), len(cols)))
+    for r in rows:
+        for t in r["families"]:
+            named = r["named"] or ["none"]
+            for n in named:
+                mat[fams.index(t), cols.index(n) if n in cols else -1] += 1 / len(named)
+    fig, ax = plt.subplots(figsize=(9, 7))
+    ax.imshow(mat, cmap="Blues")
+    ax.set_xticks(range(len(cols)), cols, rotation=60, ha="right", fontsize=8)
+    ax.set_yticks(range(len(fams)), fams, fontsize=8)
+    for i in range(len(fams)):
+        for k in range(len(cols)):
+            if mat[i, k]:
+                ax.text(k, i, f"{mat[i, k]:.0f}" if mat[i, k] == int(mat[i, k]) else f"{mat[i, k]:.1f}",
+                        ha="center", va="center", fontsize=8)
+    ax.set_xlabel("named by the doctor")
+    ax.set_ylabel("hidden in the recording")
+    ax.set_title("doctor blind benchmark: confusion matrix")
+    fig.tight_layout()
+    ctx.savefig(fig, "confusion_matrix.png")
+
+
+if __name__ == "__main__":
+    main(__name__)

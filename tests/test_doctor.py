@@ -1,0 +1,91 @@
+"""pneumasim doctor on the published blind samples (made by code that is not pneumasim) and on bad input."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from identification.doctor import diagnose
+from identification.report import write
+from pneumatics.errors import RecordingError
+from pneumatics.recording import Recording, read_csv
+from pneumatics.robot import load_robot
+
+BLIND = Path(__file__).resolve().parents[2] / "shared" / "samples" / "arm2-blind"
+pytestmark = pytest.mark.skipif(not BLIND.is_dir(), reason="shared/samples not beside the repo")
+
+KEYS = {"model", "verdict", "baseline", "calibrated", "findings", "unexplained"}
+
+
+def doctor(case):
+    robot = load_robot("arm2")
+    rep = diagnose(robot, [read_csv(BLIND / f"{case}.csv")], [read_csv(BLIND / f"{case}_heldout.csv")])
+    return robot, rep
+
+
+def test_lugre_friction_on_the_shoulder_is_named_coulomb_friction(tmp_path):
+    robot, rep = doctor("case_befd9d0f")
+    assert rep["verdict"] == "missing_physics"
+    assert [(f["effect"], f["where"]) for f in rep["findings"]] == [("coulomb_friction", {"joint": "shoulder"})]
+    f = rep["findings"][0]
+    fc = f["parameters"]["coulomb_nm"]
+    assert 0.02 < fc["value"] < 0.08 and fc["stderr"] < 0.2 * fc["value"]  # truth: 0.045 N m (LuGre)
+    assert f["heldout_nrmse"]["after"] < 0.8 * f["heldout_nrmse"]["before"]
+    assert rep["unexplained"] == []
+    write(rep, tmp_path, robot)
+    on_disk = json.loads((tmp_path / "report.json").read_text())
+    assert KEYS <= set(on_disk) and on_disk["findings"][0]["effect"] == "coulomb_friction"
+    assert (tmp_path / "report.md").read_text().startswith("# pneumasim doctor report")
+    subprocess.run([sys.executable, "-m", "rerun", "rrd", "verify", str(tmp_path / "doctor.rrd")], check=True,
+                   capture_output=True)
+
+
+def test_null_case_finds_nothing():
+    _, rep = doctor("case_8e12431d")
+    assert rep["verdict"] == "no_significant_mismatch" and rep["findings"] == [] and rep["unexplained"] == []
+    # calibration absorbed the +-10 % parameter errors: the fit is good on every channel
+    assert min(rep["baseline"]["heldout_r2"].values()) > 0.95
+
+
+@pytest.mark.slow
+def test_bouc_wen_valve_hysteresis_is_named_and_located():
+    _, rep = doctor("case_2e0854bc")
+    assert [(f["effect"], f["where"]) for f in rep["findings"]] == [("valve_hysteresis", {"actuator": "elbow", "chamber": "b"})]
+
+
+@pytest.mark.slow
+def test_effect_outside_the_vocabulary_lands_in_unexplained_located():
+    _, rep = doctor("case_2e6a35dc")
+    assert rep["findings"] == []
+    assert [u["where"] for u in rep["unexplained"]] == [{"actuator": "elbow", "chamber": "a"}]
+
+
+def test_doctor_cli_bad_input_is_one_line_and_keeps_old_reports(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "report.json").write_text('{"old": true}')
+    rec = read_csv(BLIND / "case_8e12431d.csv")
+    short = rec.slice(0, 1.0)
+    short.to_csv(tmp_path / "short.csv")
+    nocmd = Recording(rec.time, {k: v for k, v in rec.columns.items() if not k.startswith("u_b")})
+    nocmd.to_csv(tmp_path / "nocmd.csv")
+    cases = {"short.csv": "too short to diagnose", "nocmd.csv": "missing command column(s) u_b.shoulder"}
+    for name, msg in cases.items():
+        r = subprocess.run([sys.executable, "-m", "pneumasim.cli", "doctor", "--model", "arm2", str(tmp_path / name),
+                            "--out", str(out)], capture_output=True, text=True)
+        assert r.returncode != 0 and msg in r.stderr and "Traceback" not in r.stderr, r.stderr
+    r = subprocess.run([sys.executable, "-m", "pneumasim.cli", "doctor", "--model", "humanoid38",
+                        str(BLIND / "case_8e12431d.csv"), "--out", str(out)], capture_output=True, text=True)
+    assert r.returncode != 0 and "unknown joint" in r.stderr
+    assert json.loads((out / "report.json").read_text()) == {"old": True}
+
+
+def test_gaps_in_time_are_refused(tmp_path):
+    rec = read_csv(BLIND / "case_8e12431d.csv")
+    keep = np.ones(len(rec), bool)
+    keep[3000:3050] = False
+    gap = Recording(rec.time[keep], {k: v[keep] for k, v in rec.columns.items()}, {}, "gap.csv")
+    with pytest.raises(RecordingError, match="not uniform"):
+        diagnose(load_robot("arm2"), [gap])
