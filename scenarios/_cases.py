@@ -90,9 +90,34 @@ def perturbed_robot(rng: np.random.Generator, fraction: float):
     return robot, factors
 
 
+def scaled(effects: EffectSet, k: float) -> EffectSet:
+    """Every effect magnitude times k (Stribeck velocities and widths unchanged)."""
+    out = EffectSet()
+    for f in dataclasses.fields(EffectSet):
+        v = getattr(effects, f.name)
+        if isinstance(v, dict):
+            getattr(out, f.name).update({p: ({kk: (vv * k if kk != "stribeck_rad_s" else vv) for kk, vv in x.items()}
+                                             if isinstance(x, dict) else x * k) for p, x in v.items()})
+    return out
+
+
+def concealment_r2(robot, rec) -> dict:
+    """Held-out R^2 per channel of the true model *without* the effects (coupled replays
+    restarted every second): >= 0.9 everywhere means aggregate statistics hide the effect."""
+    from identification.data import prepare
+    from identification.pneumatic import PneumaticMods
+    from identification.replay import MechMods, coupled_replay
+
+    exp = prepare(robot, rec)
+    return coupled_replay(exp, PneumaticMods.nominal(robot.tables.n_chambers), MechMods()).r2()
+
+
 def make_case(out: Path, seed: int, families: list[str], *, fraction: float = 0.03, seconds: float = 60.0,
-              heldout_seconds: float = 30.0, name: str | None = None) -> dict:
-    """Write <name>.csv, <name>_heldout.csv and <name>.truth.json into ``out``; return the truth."""
+              heldout_seconds: float = 30.0, name: str | None = None, conceal: bool = True) -> dict:
+    """Write <name>.csv, <name>_heldout.csv and <name>.truth.json into ``out``; return the truth.
+
+    With ``conceal`` the effects are halved (up to 4 times) until the true model without them
+    still reaches R^2 >= 0.9 on every channel of the held-out recording."""
     rng = np.random.default_rng(seed)
     name = name or f"case_{seed}"
     truths, effs = [], []
@@ -100,10 +125,36 @@ def make_case(out: Path, seed: int, families: list[str], *, fraction: float = 0.
         t, e = draw_effect(fam, rng)
         truths.append(t)
         effs.append(e)
-    effects = merge(effs)
+    drawn = merge(effs)
     robot, factors = perturbed_robot(rng, fraction)
+    scale, history = 1.0, []
+    for _ in range(5):
+        effects = scaled(drawn, scale)
+        recs = _record(robot, effects, seed, seconds, heldout_seconds)
+        r2 = concealment_r2(robot, recs["heldout"]) if (conceal and families) else {}
+        history.append({"scale": scale, "min_r2": min(r2.values()) if r2 else None})
+        if not r2 or min(r2.values()) >= 0.9:
+            break
+        scale *= 0.5
+    for t in truths:
+        t["scale"] = scale
+        t["parameters"] = _plain({k: ({kk: (vv * scale if kk != "stribeck_rad_s" else vv) for kk, vv in v.items()}
+                                      if isinstance(v, dict) else v * scale) for k, v in t["parameters"].items()})
     paths = {}
-    for part, dur, s in (("", seconds, 2 * seed + 1), ("_heldout", heldout_seconds, 2 * seed + 2)):
+    for part, rec in recs.items():
+        path = Path(out) / f"{name}{'' if part == 'main' else '_heldout'}.csv"
+        rec.to_csv(path)
+        paths[part] = str(path)
+    truth = {"case": name, "seed": seed, "effects": truths, "families": families or ["none"],
+             "parameter_factors": factors, "perturbation_fraction": fraction, "recordings": paths,
+             "concealment": {"history": history, "r2_per_channel": r2 if families else {}}}
+    atomic_write_json(Path(out) / f"{name}.truth.json", truth)
+    return truth
+
+
+def _record(robot, effects, seed, seconds, heldout_seconds) -> dict:
+    recs = {}
+    for part, dur, s in (("main", seconds, 2 * seed + 1), ("heldout", heldout_seconds, 2 * seed + 2)):
         ref = hand_moved(robot.joint_names, robot.joint_range(), dur, seed=s)
         sim = Simulation(robot, effects=effects)
         sim.reset(qpos=ref.reference(0.0), pressure_pa=4.5e5)
@@ -112,13 +163,8 @@ def make_case(out: Path, seed: int, families: list[str], *, fraction: float = 0.
         sim.data.time = 0.0
         rec = run(sim, ARM2_PIDF.build(ref, robot.tables.valve[:, 0]), dur, seed=s + 7)
         rec.meta = {"model": "arm2", "rate_hz": 100.0, "daq_averaging": True}
-        path = Path(out) / f"{name}{part}.csv"
-        rec.to_csv(path)
-        paths[part.strip("_") or "main"] = str(path)
-    truth = {"case": name, "seed": seed, "effects": truths, "families": families or ["none"],
-             "parameter_factors": factors, "perturbation_fraction": fraction, "recordings": paths}
-    atomic_write_json(Path(out) / f"{name}.truth.json", truth)
-    return truth
+        recs[part] = rec
+    return recs
 
 
 def _plain(d):
