@@ -109,16 +109,12 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             _say(progress, f"fitting {s.hyp.label}")
             fit_pneumatic(s, exp, fit_win, mods, sigma)
             s.heldout_before, s.heldout_after = base_h, chamber_rms(held, win_h, s.mods)
-        top.sort(key=lambda s: -s.heldout_gain)
-        best = top[0]
-        value, se = best.fit.values[-1], best.fit.stderr[-1]
-        if best.heldout_gain < PNEU_KEEP or abs(value) < MIN_T * se:
+        finding = _accept(top, PNEU_KEEP)
+        if finding is None:
             break
-        alts = [s.hyp.family for s in top[1:] if s.hyp.where == best.hyp.where and s.hyp.family != best.hyp.family
-                and s.heldout_gain >= ISOLABLE * best.heldout_gain]
-        findings.append(Finding(best, best.hyp.family, best.hyp.where, _params(best), best.heldout_gain, alts))
-        tried.add(best.hyp.label)
-        mods = best.mods
+        findings.append(finding)
+        tried.add(finding.scored.hyp.label)
+        mods = finding.scored.mods
 
     # mechanical hypotheses, greedy (linear fits)
     base_extra = None
@@ -133,14 +129,11 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             ex = s.hyp.regressor(held, td_h)
             full = ex if base_extra is None else np.concatenate([_regs(kept_mech, held, td_h), ex], axis=2)
             s.heldout_before, s.heldout_after = base_h, torque_rms(td_h, s.fit, full)
-        scored.sort(key=lambda s: -s.heldout_gain)
-        best = scored[0]
-        value, se = best.fit.values[-1], best.fit.stderr[-1]
-        if best.heldout_gain < MECH_KEEP or abs(value) < MIN_T * se:
+        finding = _accept(scored, MECH_KEEP)
+        if finding is None:
             break
-        alts = [s.hyp.family for s in scored[1:] if s.hyp.where == best.hyp.where and s.hyp.family != best.hyp.family
-                and s.heldout_gain >= ISOLABLE * best.heldout_gain]
-        findings.append(Finding(best, best.hyp.family, best.hyp.where, _params(best), best.heldout_gain, alts))
+        findings.append(finding)
+        best = finding.scored
         tried.add(best.hyp.label)
         reg = best.hyp.regressor(exp, td)
         names = [p[0] for p in best.hyp.params]
@@ -252,6 +245,20 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     }
     report["_replays"] = {"nominal": nominal_replay, "baseline": base_replay, "final": final_replay}
     return report
+
+
+def _accept(candidates: list, keep: float) -> Finding | None:
+    """The best candidate by held-out gain as a Finding, if it pays (gain >= keep and its
+    parameter >= MIN_T standard errors); families at the same place explaining nearly as much
+    are its isolability alternatives."""
+    candidates = sorted(candidates, key=lambda s: -s.heldout_gain)
+    best = candidates[0]
+    value, se = best.fit.values[-1], best.fit.stderr[-1]
+    if best.heldout_gain < keep or abs(value) < MIN_T * se:
+        return None
+    alts = [s.hyp.family for s in candidates[1:] if s.hyp.where == best.hyp.where and s.hyp.family != best.hyp.family
+            and s.heldout_gain >= ISOLABLE * best.heldout_gain]
+    return Finding(best, best.hyp.family, best.hyp.where, _params(best), best.heldout_gain, alts)
 
 
 def _regs(hyps, exp, td):

@@ -103,6 +103,24 @@ def bench_model(name: str, steps: int, repeats: int = 3, with_rerun: bool = True
     return out
 
 
+def bench_doctor(quick: bool) -> dict:
+    """Wall time of ``pneumasim doctor`` on a 60 s, 100 Hz arm2 recording (+ 30 s held out),
+    made fresh with a hidden Coulomb friction (``--quick``: 20 s + 10 s)."""
+    from identification.doctor import diagnose
+    from scenarios._cases import make_case
+
+    seconds, held = (20.0, 10.0) if quick else (60.0, 30.0)
+    with tempfile.TemporaryDirectory() as tmp:
+        truth = make_case(Path(tmp), 7, ["coulomb_friction"], seconds=seconds, heldout_seconds=held, conceal=False)
+        from pneumatics.recording import read_csv
+        recs = [read_csv(truth["recordings"]["main"])], [read_csv(truth["recordings"]["heldout"])]
+        t0 = time.perf_counter()
+        report = diagnose(load_robot("arm2"), *recs)
+        secs = time.perf_counter() - t0
+    return {"recording_seconds": seconds, "heldout_seconds": held, "seconds": secs,
+            "named": ",".join(f["effect"] for f in report["findings"]) or "nothing"}
+
+
 def run_bench(quick: bool = False, out: str | Path = "runs/bench") -> dict:
     steps = 20_000 if quick else 100_000
     results = {}
@@ -111,6 +129,7 @@ def run_bench(quick: bool = False, out: str | Path = "runs/bench") -> dict:
             continue
         n = steps if name == "arm2" else steps // 4
         results[name] = bench_model(name, n, repeats=3)
+    results["doctor"] = bench_doctor(quick)
     _print_table(results)
     path = Path(out) / "bench.json"
     atomic_write_json(path, results)
@@ -132,6 +151,10 @@ def _print_table(results: dict):
                       f"{r['ratio']:.2f}", f"{r['realtime_factor']:.0f}",
                       f"{r['rerun_overhead']:+.0%}" if "rerun_overhead" in r else "-")
     Console().print(table)
+    if "doctor" in results:
+        d = results["doctor"]
+        print(f"doctor: {d['recording_seconds']:.0f} s + {d['heldout_seconds']:.0f} s held out of arm2 at 100 Hz "
+              f"diagnosed in {d['seconds']:.0f} s (named: {d['named']})")
 
 
 if __name__ == "__main__":
