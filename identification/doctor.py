@@ -37,6 +37,7 @@ PNEU_KEEP = 0.20           # held-out reduction of the located chambers' mean sq
 MECH_KEEP = 0.10           # held-out reduction of the joint's torque residual mean square
 MIN_T = 4.0                # |value| / stderr of a kept parameter
 ISOLABLE = 0.8             # another family within this fraction of the best's gain: not isolable
+PARSIMONY = 0.03           # held-out gain a richer hypothesis must add over a simpler one at its place
 UNEXPLAINED_RATIO = 1.6    # a chamber's held-out RMS over the chambers' median
 TRAIN_RATIO = 1.3          # ... and its training RMS over the chambers' median,
 GAP_RATIO = 1.25           # ... or its held-out/training RMS ratio over the chambers' median ratio
@@ -145,7 +146,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             base_extra = (np.concatenate([base_extra[0], reg], axis=2), base_extra[1] + names,
                           (np.concatenate([base_extra[2][0], lo]), np.concatenate([base_extra[2][1], hi])))
         kept_mech.append(best.hyp)
-        extra_terms.append((_mech_attr(best.hyp.family), best.hyp.joint))
+        extra_terms += [(_mech_attr(name), best.hyp.joint) for name, *_ in best.hyp.params]
     final_rfit = fit_rigid_body(td, *base_extra) if base_extra else rfit
 
     # -- locate: regimes and windows of each finding; unexplained residual ------------------
@@ -215,7 +216,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     final_replay = coupled_replay(held, mods, mm_final)
     nb, nf = base_replay.nrmse(), final_replay.nrmse()
     for f in findings:
-        ch = _channel(f)
+        ch = max(_channels(f, robot), key=lambda c: nb[c] - nf[c])
         f.nrmse = {"before": nb[ch], "after": nf[ch], "channel": ch}
         f.evidence = _evidence(f)
     report = {
@@ -252,13 +253,27 @@ def _accept(candidates: list, keep: float) -> Finding | None:
     parameter >= MIN_T standard errors); families at the same place explaining nearly as much
     are its isolability alternatives."""
     candidates = sorted(candidates, key=lambda s: -s.heldout_gain)
-    best = candidates[0]
-    value, se = best.fit.values[-1], best.fit.stderr[-1]
-    if best.heldout_gain < keep or abs(value) < MIN_T * se:
-        return None
-    alts = [s.hyp.family for s in candidates[1:] if s.hyp.where == best.hyp.where and s.hyp.family != best.hyp.family
-            and s.heldout_gain >= ISOLABLE * best.heldout_gain]
-    return Finding(best, best.hyp.family, best.hyp.where, _params(best), best.heldout_gain, alts)
+    for best in candidates:
+        if best.heldout_gain < keep:
+            return None
+        k = len(best.hyp.params)
+        values, ses = best.fit.values[-k:], best.fit.stderr[-k:]
+        if np.any(np.abs(values) < MIN_T * ses):
+            continue  # a parameter it needs is not significant: a simpler candidate may be
+        # parsimony: a candidate with fewer parameters at the same place that explains nearly
+        # as much wins (stiction = Coulomb + breakaway is preferred only if it pays clearly)
+        richer = best
+        simpler = [s for s in candidates if s.hyp.where == best.hyp.where and len(s.hyp.params) < k
+                   and s.heldout_gain >= best.heldout_gain - PARSIMONY and s.heldout_gain >= keep]
+        if simpler:
+            best = simpler[0]
+        alts = [s.hyp.family for s in candidates if s is not best and s.hyp.where == best.hyp.where
+                and s.hyp.family != best.hyp.family and len(s.hyp.params) <= len(best.hyp.params)
+                and s.heldout_gain >= ISOLABLE * best.heldout_gain]
+        if richer is not best:  # significant in training, not worth it on held-out data
+            alts.append(richer.hyp.family)
+        return Finding(best, best.hyp.family, best.hyp.where, _params(best), best.heldout_gain, alts)
+    return None
 
 
 def _regs(hyps, exp, td):
@@ -271,9 +286,10 @@ def _params(s: Scored) -> dict:
     return {n: {"value": float(v), "stderr": float(e)} for n, v, e in zip(names, s.fit.values[-k:], s.fit.stderr[-k:])}
 
 
-def _mech_attr(family):
-    return {"coulomb_friction": "coulomb_nm", "stiction": "stiction_extra_nm", "viscous_friction": "viscous_nm_s",
-            "angle_sensor_offset": "angle_offset_rad"}[family]
+def _mech_attr(param):
+    """MechMods attribute of a mechanical hypothesis parameter."""
+    return {"coulomb_nm": "coulomb_nm", "breakaway_extra_nm": "stiction_extra_nm",
+            "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad"}[param]
 
 
 def _without(mods: PneumaticMods, f: Finding) -> PneumaticMods:
@@ -289,15 +305,16 @@ def mods_without_all(mods, findings):
     return mods
 
 
-def _channel(f: Finding) -> str:
+def _channels(f: Finding, robot) -> list[str]:
+    """The recorded channels a finding acts on (the report shows the one it improves most)."""
     w = f.where
     if "joint" in w:
-        return f"q.{w['joint']}"
+        return [f"q.{w['joint']}"]
     if "chamber" in w:
-        return f"p_{w['chamber']}.{w['actuator']}"
+        return [f"p_{w['chamber']}.{w['actuator']}"]
     if "actuator" in w:
-        return f"p_a.{w['actuator']}"
-    return "p_a." + "all"
+        return [f"p_a.{w['actuator']}", f"p_b.{w['actuator']}"]
+    return [f"p_{c}.{a}" for a, c in robot.chamber_names]
 
 
 def _bootstrap_inclusion(e_before, e_after, keep: float, n: int = 500, seed: int = 0) -> float:

@@ -81,6 +81,16 @@ def _joint_reg(j, fn):
     return reg
 
 
+def _joint_regs(j, fns):
+    def reg(exp, td):
+        n, J = exp.qd.shape
+        out = np.zeros((n, J, len(fns)))
+        for k, fn in enumerate(fns):
+            out[:, j, k] = fn(exp, td)
+        return out
+    return reg
+
+
 def mechanical_hypotheses(robot) -> list[Hypothesis]:
     out = []
     for j, name in enumerate(robot.joint_names):
@@ -88,8 +98,11 @@ def mechanical_hypotheses(robot) -> list[Hypothesis]:
         out += [
             Hypothesis("coulomb_friction", w, "mechanical", [("coulomb_nm", 0.0, 0.0, np.inf, 0.0)], joint=j,
                        regressor=_joint_reg(j, lambda e, td, j=j: coulomb_shape(e.qd[:, j]))),
-            Hypothesis("stiction", w, "mechanical", [("breakaway_extra_nm", 0.0, 0.0, np.inf, 0.0)], joint=j,
-                       regressor=_joint_reg(j, lambda e, td, j=j: stribeck_shape(e.qd[:, j]))),
+            # stiction is Stribeck friction: a Coulomb level plus a breakaway excess at low speed
+            Hypothesis("stiction", w, "mechanical", [("coulomb_nm", 0.0, 0.0, np.inf, 0.0),
+                                                     ("breakaway_extra_nm", 0.0, 0.0, np.inf, 0.0)], joint=j,
+                       regressor=_joint_regs(j, [lambda e, td, j=j: coulomb_shape(e.qd[:, j]),
+                                                 lambda e, td, j=j: stribeck_shape(e.qd[:, j])])),
             Hypothesis("viscous_friction", w, "mechanical", [("viscous_nm_s_per_rad", 0.0, 0.0, np.inf, 0.0)],
                        joint=j, regressor=_joint_reg(j, lambda e, td, j=j: e.qd[:, j])),
             Hypothesis("angle_sensor_offset", w, "mechanical", [("offset_rad", 0.0, -0.2, 0.2, 0.0)], joint=j,

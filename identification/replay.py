@@ -45,7 +45,7 @@ class MechMods:
         for (attr, j), v in zip(extra_terms, fit.values[len(fit.values) - len(extra_terms):]):
             arr = getattr(m, attr)
             arr = np.zeros(J) if arr is None else arr
-            arr[j] = v
+            arr[j] += v  # terms of several findings at one joint add up
             setattr(m, attr, arr)
         return m
 

@@ -105,12 +105,23 @@ def fluid_step(tables: FluidTables, p, command_v, prev_length, length, dt):
     return fluid_step_areas(tables, p, a_s, a_e, prev_length, length, dt)
 
 
-def fluid_step_areas(tables: FluidTables, p, a_supply, a_exhaust, prev_length, length, dt):
-    """:func:`fluid_step` with the valves' (n_ch,) supply and exhaust areas [m^2] given."""
+def fluid_step_areas(tables: FluidTables, p, a_supply, a_exhaust, prev_length, length, dt, supply_pa=None):
+    """:func:`fluid_step` with the valves' (n_ch,) supply and exhaust areas [m^2] given, and
+    the supply pressure in effect (``supply_pa``, default the nominal one; see supply_flow)."""
     a_s, a_e = a_supply, a_exhaust
     volume, volume_rate = chamber_geometry(tables, prev_length, length, dt)
-    return integrate(p, volume, volume_rate, a_s, a_e, tables.gas, tables.supply_pa, tables.room_pa, dt,
+    ps = tables.supply_pa if supply_pa is None else supply_pa
+    return integrate(p, volume, volume_rate, a_s, a_e, tables.gas, ps, tables.room_pa, dt,
                      leak_flows(tables, p))
+
+
+def supply_pressure_after(tables: FluidTables, p, a_supply) -> float:
+    """Supply pressure [Pa] in effect for the next step under the supply_droop effect: the
+    nominal supply minus droop x the total mass flow the chambers draw at pressures p."""
+    if tables.supply_droop_pa_per_kg_s <= 0:
+        return tables.supply_pa
+    m = orifice_flow(a_supply, tables.supply_pa, p, tables.gas)[0]
+    return tables.supply_pa - tables.supply_droop_pa_per_kg_s * float(np.maximum(m, 0.0).sum())
 
 
 def leak_flows(tables: FluidTables, p):

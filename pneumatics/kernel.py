@@ -11,8 +11,9 @@ Table layouts (from :meth:`pneumatics.tables.FluidTables.packed`):
                    leak area to the room [m^2] (effect external_leak, 0 = none)
   fric (n_f, 5):   dof address, Coulomb [N m], extra breakaway [N m], Stribeck velocity
                    [rad/s], viscous [N m s/rad] (effects coulomb_friction, stiction, viscous_friction)
-  glob (12,):      R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply, room, dt,
-                   slope of the linearised flow near r = 1
+  glob (14,):      R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply, room, dt,
+                   slope of the linearised flow near r = 1, supply droop [Pa/(kg/s)]
+                   (effect supply_droop, 0 = none), supply pressure in effect (state)
 """
 from __future__ import annotations
 
@@ -65,7 +66,7 @@ def _orifice(area, p_from, p_to, glob):
 def _rate(p, volume, volume_rate, a_s, a_e, glob, m_extra):
     rt = glob[0] * glob[2]
     n = glob[3]
-    m_s, _, dms = _orifice(a_s, glob[8], p, glob)
+    m_s, _, dms = _orifice(a_s, glob[13], p, glob)  # supply pressure in effect (supply_droop)
     m_e, dme, _ = _orifice(a_e, p, glob[9], glob)
     return (n / volume * (rt * (m_s - m_e + m_extra) - p * volume_rate),
             n / volume * (rt * (dms - dme) - volume_rate))
@@ -115,6 +116,12 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
             volume = ch[i, 1] + ch[i, 0] * (stroke - x_mid)
             vrate = -ch[i, 0] * (x1 - x0) / dt
         p[i] = _adaptive_ros2(p[i], volume, vrate, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
+    if glob[12] > 0.0:  # supply_droop: the line drops pressure with the total supply flow
+        total = 0.0
+        for i in range(n_ch):
+            m_s, _, _ = _orifice(areas[i, 0], glob[8], p[i], glob)
+            total += max(m_s, 0.0)
+        glob[13] = glob[8] - glob[12] * total
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -182,7 +189,7 @@ def pack(tables, ctrl_index, dt):
     ch = np.ascontiguousarray(np.column_stack([ch, tables.external_leak_m2]))
     gas = tables.gas
     slope = gas.c_sub * _psi_ref(gas.laminar_ratio, gas.heat_capacity_ratio) / (1.0 - gas.laminar_ratio)
-    return act, ch, np.concatenate([glob, [dt, slope]])
+    return act, ch, np.concatenate([glob, [dt, slope, tables.supply_droop_pa_per_kg_s, tables.supply_pa]])
 
 
 # -- the whole physics loop, compiled -------------------------------------------------------

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from .chamber import actuator_force, fluid_step_areas
+from .chamber import actuator_force, fluid_step_areas, supply_pressure_after
 from .tables import valve_areas_table
 from .effects.effect_set import EffectSet
 from .errors import PneumasimError
@@ -76,7 +76,8 @@ class Simulation:
         self.effects = effects or EffectSet()
         self.tables = dataclasses.replace(
             robot.tables, external_leak_m2=self.effects.chamber_array(robot, "external_leak_m2"),
-            piston_leak_m2=self.effects.actuator_array(robot, "piston_leak_m2"))
+            piston_leak_m2=self.effects.actuator_array(robot, "piston_leak_m2"),
+            supply_droop_pa_per_kg_s=self.effects.supply_droop_pa_per_kg_s)
         self._valve_leak = self.effects.chamber_array(robot, "valve_leak_m2")
         self._hysteresis = self.effects.chamber_array(robot, "valve_hysteresis_v")
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
@@ -112,6 +113,7 @@ class Simulation:
         self.pressure[:] = self.tables.room_pa if pressure_pa is None else pressure_pa
         self.command[:] = self.tables.valve[:, 0]
         self.spool[:] = self.command
+        self._packed[2][13] = self.tables.supply_pa  # supply pressure in effect (supply_droop)
         self._update_areas()
         self._clip_warned = False
         self.sums[:] = 0.0
@@ -217,8 +219,9 @@ class Simulation:
             fluid_step_fast(self.pressure, self.areas, self._prev_length, self.data.actuator_length,
                             self.data.ctrl, act, ch, glob)
         else:
-            self.pressure[:] = fluid_step_areas(self.tables, self.pressure, self.areas[:, 0], self.areas[:, 1], self._prev_length,
-                                          length, self.dt)
+            self.pressure[:] = fluid_step_areas(self.tables, self.pressure, self.areas[:, 0], self.areas[:, 1],
+                                                self._prev_length, length, self.dt, self._packed[2][13])
+            self._packed[2][13] = supply_pressure_after(self.tables, self.pressure, self.areas[:, 0])
             self._prev_length[:] = length
 
     def _accumulate(self):

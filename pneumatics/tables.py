@@ -32,6 +32,7 @@ class FluidTables:
     valve: np.ndarray           # (n_ch, 8) valve rows, pneumatics.valve.VALVE_COLUMNS
     external_leak_m2: np.ndarray = None  # (n_ch,) leak to the room (effect), 0 = none
     piston_leak_m2: np.ndarray = None    # (n_act,) leak across the piston a -> b (effect)
+    supply_droop_pa_per_kg_s: float = 0.0  # supply pressure drop per kg/s of total supply flow (effect)
 
     def __post_init__(self):
         if self.external_leak_m2 is None:

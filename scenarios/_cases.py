@@ -37,21 +37,28 @@ FAMILIES = {
     "piston_leak": ("actuator", lambda r: {"piston_leak_m2": r.uniform(1e-8, 3e-8)}),
     "pressure_sensor_offset": ("chamber", lambda r: {"pressure_offset_pa": r.choice([-1, 1]) * r.uniform(8e3, 2e4)}),
     "angle_sensor_offset": ("joint", lambda r: {"angle_offset_rad": r.choice([-1, 1]) * r.uniform(0.03, 0.06)}),
+    "supply_droop": ("supply", lambda r: {"supply_droop_pa_per_kg_s": r.uniform(4e7, 1e8)}),
 }
 
 
 def draw_effect(family: str, rng: np.random.Generator) -> tuple[dict, EffectSet]:
     kind, draw = FAMILIES[family]
-    place = {"joint": JOINTS, "chamber": CHAMBERS, "actuator": JOINTS}[kind][rng.integers(0, 2 if kind != "chamber" else 4)]
+    places = {"joint": JOINTS, "chamber": CHAMBERS, "actuator": JOINTS, "supply": ["all"]}[kind]
+    place = places[rng.integers(0, len(places))]
     params = draw(rng)
     eff = EffectSet()
     (attr, value), = params.items()
-    getattr(eff, attr)[place] = value
+    if kind == "supply":
+        setattr(eff, attr, value)
+    else:
+        getattr(eff, attr)[place] = value
     if kind == "chamber":
         a, c = place.split(".")
         where = {"actuator": a, "chamber": c}
     elif kind == "actuator":
         where = {"actuator": place}
+    elif kind == "supply":
+        where = {"supply": "all"}
     else:
         where = {"joint": place}
     return {"family": family, "where": where, "parameters": _plain(params)}, eff
@@ -64,6 +71,7 @@ def merge(effects: list[EffectSet]) -> EffectSet:
             v = getattr(e, f.name)
             if isinstance(v, dict):
                 getattr(out, f.name).update(v)
+        out.supply_droop_pa_per_kg_s += e.supply_droop_pa_per_kg_s
     return out
 
 
@@ -98,6 +106,7 @@ def scaled(effects: EffectSet, k: float) -> EffectSet:
         if isinstance(v, dict):
             getattr(out, f.name).update({p: ({kk: (vv * k if kk != "stribeck_rad_s" else vv) for kk, vv in x.items()}
                                              if isinstance(x, dict) else x * k) for p, x in v.items()})
+    out.supply_droop_pa_per_kg_s = effects.supply_droop_pa_per_kg_s * k
     return out
 
 

@@ -1,19 +1,22 @@
 """Physical effects a nominal model may leave out (DESIGN.md effect vocabulary).
 
-Each module is a small physical model with named, unit-carrying parameters.  The same
-functions serve the mismatch finder (``identification/hypotheses.py``) as hypotheses, so
-whatever it finds can be simulated and plotted.
+Each effect is a small physical model with named, unit-carrying parameters.  The simulator
+switches them on through :class:`effect_set.EffectSet` (``Simulation(robot, effects=...)``),
+and the mismatch finder tests the same physics as hypotheses
+(``identification/hypotheses.py``), so whatever it finds can be simulated and kept.
 
-| family | module | physics |
-| --- | --- | --- |
-| coulomb_friction, stiction, viscous_friction | friction | Coulomb + Stribeck + viscous torque (Armstrong-Helouvry 1994) |
-| valve_leak, piston_leak, external_leak | leaks | orifice flows: spool not shut at null, across the piston, to the room |
-| valve_hysteresis, valve_lag | valve_dynamics | play operator on the command; first-order lag and dead time |
-| line_dynamics | valve_dynamics | tube between valve and port: transport delay + extra volume |
-| pressure_sensor_offset, angle_sensor_offset | sensors | additive offsets |
-| supply_droop | supply | supply pressure falls with the total supply flow |
-| heat_transfer | heat | finite heat exchange between gas and wall (Newton cooling) |
-| end_stop | friction | stiff spring beyond a joint position |
+| family | physics | simulator | doctor |
+| --- | --- | --- | --- |
+| coulomb_friction, stiction, viscous_friction | Coulomb + Stribeck + viscous torque (`friction.py`) | kernel, qfrc_applied | yes |
+| valve_leak | spool open both ways near null: extra Gaussian area | valve areas | yes |
+| external_leak | orifice from a chamber to the room (`chamber.leak_flows`) | kernel | yes |
+| piston_leak | orifice between chambers a and b, conserving the cylinder's air | kernel | yes |
+| valve_hysteresis | play operator between command and spool (`valve_dynamics.play`) | at each command | yes |
+| valve_lag | first-order lag of the spool (`valve_dynamics.first_order_lag`) | no | yes |
+| line_dynamics | transport delay of the tube (`valve_dynamics.dead_time`) | no | yes (as a delay) |
+| pressure_sensor_offset, angle_sensor_offset | additive sensor offsets | observations | yes |
+| supply_droop | supply pressure falls with the total supply flow | no | yes |
+| heat_transfer, end_stop, backlash, force_sensor_offset | — | not yet | not yet |
 """
 
 #: every family name the doctor can report (DESIGN.md; extend, never rename)

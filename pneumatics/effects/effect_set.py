@@ -29,6 +29,8 @@ class EffectSet:
     """chamber -> sensor reads true + offset [Pa] (pressure_sensor_offset)"""
     angle_offset_rad: dict = field(default_factory=dict)
     """joint -> sensor reads true + offset [rad] (angle_sensor_offset)"""
+    supply_droop_pa_per_kg_s: float = 0.0
+    """supply pressure drop per kg/s of the total flow the valves draw (supply_droop)"""
 
     def chamber_array(self, robot, attr: str) -> np.ndarray:
         names = [f"{a}.{c}" for a, c in robot.chamber_names]
@@ -69,4 +71,5 @@ class EffectSet:
     @property
     def empty(self) -> bool:
         return not any((self.friction, self.valve_leak_m2, self.external_leak_m2, self.piston_leak_m2,
-                        self.valve_hysteresis_v, self.pressure_offset_pa, self.angle_offset_rad))
+                        self.valve_hysteresis_v, self.pressure_offset_pa, self.angle_offset_rad,
+                        self.supply_droop_pa_per_kg_s))
