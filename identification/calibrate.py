@@ -5,7 +5,8 @@
   [1/1.35, 1.35] — a real robot's ±10 % with room to spare, not enough to mimic an effect.
 * Rigid body: per moving body a mass-and-inertia scale, per joint the damping and the
   armature, by linear least squares on the inverse-dynamics torque (:mod:`mechanics`),
-  bounded likewise (damping to [0.5, 2] x nominal).
+  bounded to +-35 % (damping +-30 %: more is viscous_friction, armature -50..+200 %:
+  the pistons' reflected inertia is poorly known).
 
 Both return an :class:`identification.lsq.Fit` with standard errors.
 """

@@ -39,8 +39,7 @@ MIN_T = 4.0                # |value| / stderr of a kept parameter
 ISOLABLE = 0.8             # another family within this fraction of the best's gain: not isolable
 PARSIMONY = 0.03           # held-out gain a richer hypothesis must add over a simpler one at its place
 UNEXPLAINED_RATIO = 1.6    # a chamber's held-out RMS over the chambers' median
-TRAIN_RATIO = 1.3          # ... and its training RMS over the chambers' median,
-GAP_RATIO = 1.25           # ... or its held-out/training RMS ratio over the chambers' median ratio
+TRAIN_RATIO = 1.3          # ... and its training RMS over the chambers' median
 MAX_ROUNDS = 3
 MAX_FITS = 2             # full fits per round (the score test ranks well)
 
@@ -70,6 +69,12 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     t_start = time.perf_counter()
     if not recordings:
         raise ValueError("no recordings")
+    ignored = [r.source for r in list(recordings[1:]) + list(holdouts[1:])]
+    if ignored:
+        import warnings
+        warnings.warn(f"doctor: fits {recordings[0].source} and holds out "
+                      f"{holdouts[0].source if holdouts else 'its last 30 %'}; pooling several recordings is not "
+                      f"implemented yet, so these are not used: {', '.join(ignored)}", stacklevel=2)
     train_rec = recordings[0]
     if holdouts:
         held_rec = holdouts[0]
@@ -188,10 +193,9 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     explained = {c for f in findings if f.scored.hyp.kind == "pneumatic" for c in f.scored.hyp.chambers}
     for c, (a, ch) in enumerate(robot.chamber_names):
         others = floor_h
-        # above the chambers' common floor on held-out data, and either above it in training
-        # too or generalising worse than the others (calibration absorbed part of it)
-        gap = rms_c / np.maximum(rms_t, 1e-9)
-        consistent = rms_t[c] >= TRAIN_RATIO * floor_t or gap[c] >= GAP_RATIO * np.median(gap)
+        # above the chambers' common floor on held-out data and in training too: a held-out
+        # excess alone is often a regime the training data did not visit, not missing physics
+        consistent = rms_t[c] >= TRAIN_RATIO * floor_t
         if c in explained or rms_c[c] < UNEXPLAINED_RATIO * floor_h or rms_c[c] < 2 * sigma or not consistent:
             continue
         r = res_h[:, :, c].ravel()
@@ -241,6 +245,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             "train_seconds": float(exp.t[-1] - exp.t[0]),
             "heldout_seconds": float(held.t[-1] - held.t[0]),
             "heldout_source": held_rec.source,
+            "ignored_recordings": ignored,
             "seconds": time.perf_counter() - t_start,
         },
     }

@@ -83,7 +83,7 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
     for j, jn in enumerate(robot.joint_names):
         dof = dadr[j]
         # armature: the pistons' reflected inertia is poorly known and weakly identifiable
-        for field, lo_, hi_ in (("dof_damping", -0.5, 1.0), ("dof_armature", -0.5, 2.0)):
+        for field, lo_, hi_ in (("dof_damping", -0.3, 0.3), ("dof_armature", -0.5, 2.0)):
             nominal = getattr(model, field)[dof]
             if nominal <= 0:
                 continue
