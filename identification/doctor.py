@@ -22,8 +22,8 @@ import numpy as np
 
 from pneumatics.robot import Robot
 
-from .calibrate import SCALE_BOUND, fit_chambers, pressure_sigma
-from .data import Experiment, prepare, split
+from .calibrate import fit_chambers, pressure_sigma
+from .data import prepare, split
 from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses
 from .mechanics import fit_rigid_body, torque_data
 from .pneumatic import PneumaticMods, Windows, replay

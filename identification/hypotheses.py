@@ -13,7 +13,6 @@ import numpy as np
 
 from pneumatics.effects.friction import coulomb_shape, stribeck_shape
 
-from .pneumatic import PneumaticMods
 
 
 @dataclass

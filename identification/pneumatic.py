@@ -10,7 +10,7 @@ pneumatic effect hypotheses — and outputs what the DAQ would have recorded (10
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 

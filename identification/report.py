@@ -169,7 +169,7 @@ def _markdown(report, pngs) -> str:
               f"- pressure noise floor (from the data): {d['pressure_noise_pa']:.0f} Pa",
               f"- condition numbers (scaled J^T J): chambers {d['calibration_condition']:.3g}, rigid body {d['rigid_body_condition']:.3g}",
               f"- parameters at their bounds: {', '.join(d['parameters_at_bounds']) or 'none'}",
-              f"- Ljung-Box Q (lags 1-20) of the held-out pressure residuals: " +
+              "- Ljung-Box Q (lags 1-20) of the held-out pressure residuals: " +
               ", ".join(f"{k} {v:.0f}" for k, v in d["ljung_box_q_heldout_pressure"].items()), ""]
     for p in pngs:
         lines.append(f"![{p}]({p})")

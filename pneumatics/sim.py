@@ -25,6 +25,7 @@ import numpy as np
 from .chamber import actuator_force, fluid_step_areas, supply_pressure_after
 from .tables import valve_areas_table
 from .effects.effect_set import EffectSet
+from .effects.friction import friction_torque
 from .errors import PneumasimError
 from .kernel import fluid_step_fast, pack, run_steps_compiled
 from .robot import Robot
@@ -207,7 +208,6 @@ class Simulation:
         d.ctrl[self._ids] = actuator_force(self.tables, self.pressure)
 
     def _apply_friction(self):
-        from .effects.friction import friction_torque
         for dof, fc, fs, vs, b in self._fric:
             v = self.data.qvel[int(dof)]
             self.data.qfrc_applied[int(dof)] = friction_torque(v, fc, fs, vs, b)

@@ -12,7 +12,6 @@ still reaches held-out R^2 >= 0.9 on every channel).
 """
 from __future__ import annotations
 
-import json
 import tempfile
 import time
 from pathlib import Path

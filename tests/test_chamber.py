@@ -6,7 +6,6 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from scipy.integrate import solve_ivp
 
-from pneumatics import chamber
 from pneumatics.chamber import integrate, pressure_rate, static_transient
 from pneumatics.medium import GasCfg
 from pneumatics.robot import load_robot

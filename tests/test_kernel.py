@@ -54,7 +54,7 @@ def test_static_transient_fast_matches_reference():
     u = np.linspace(0, 10, 21)
     vol = np.full(u.size, 1e-5)
     t, ref = chamber.static_transient(tab.valve[2][None], vol, 1e5, u, 0.5, 1e-3, tab.gas, tab.supply_pa, tab.room_pa)
-    a_s, a_e = valve_areas_table(tab, u) if False else chamber.valve_areas(u, tab.valve[2][None])
+    a_s, a_e = chamber.valve_areas(u, tab.valve[2][None])
     out = np.empty_like(ref)
     kernel.static_transient_fast(np.full(u.size, 1e5), vol, a_s, a_e, glob, 1e-3, out)
     np.testing.assert_allclose(out, ref, rtol=1e-11)
@@ -92,7 +92,6 @@ def test_step_refinement_is_rare_at_1ms(rng):
 def test_reordered_and_extra_mujoco_actuators(tmp_path, rng):
     """Fluid actuators need not be MuJoCo actuators 0..n-1 in TOML order: the kernel indexes
     data.actuator_length and data.ctrl by MuJoCo id."""
-    import dataclasses
     import mujoco
     from pneumatics.robot import _assemble
 

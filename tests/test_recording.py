@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from pneumatics.errors import RecordingError
-from pneumatics.recording import Recording, RecordingWarning, read_csv, validate
+from pneumatics.recording import RecordingWarning, read_csv, validate
 from pneumatics.runner import OpenLoop, run
 from pneumatics.sim import Simulation
 

@@ -15,7 +15,9 @@ from ..errors import UnknownNameError
 @dataclass
 class EffectSet:
     friction: dict = field(default_factory=dict)
-    """joint -> {"coulomb_nm", "stiction_extra_nm", "stribeck_rad_s", "viscous_nm_s"} (coulomb_friction, stiction, viscous_friction)"""
+    """joint -> {"coulomb_nm", "stiction_extra_nm", "stribeck_rad_s", "viscous_nm_s"} (coulomb_friction,
+    stiction, viscous_friction); written into ``data.qfrc_applied`` of those joints every step,
+    replacing what a user put there."""
     valve_leak_m2: dict = field(default_factory=dict)
     """chamber -> extra area open both ways near null [m^2] (valve_leak; Gaussian of width valve_leak_width_v)"""
     valve_leak_width_v: float = 0.6
