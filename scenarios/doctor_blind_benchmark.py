@@ -118,10 +118,18 @@ def _confusion(rows, ctx):
     cols = fams + ["other"]
     mat = np.zeros((len(fams), len(cols)))
     for r in rows:
+        named = r["named"] or ["none"]
+        # each hidden family is matched to its own name when the doctor said it; the names
+        # left over are shared among the hidden families that were not matched
+        matched = [t for t in r["families"] if any(_same(n, t, False) for n in named)]
+        left = [n for n in named if not any(_same(n, t, False) for t in r["families"])] or ["none"]
         for t in r["families"]:
-            named = r["named"] or ["none"]
-            for n in named:
-                mat[fams.index(t), cols.index(n) if n in cols else -1] += 1 / len(named)
+            if t in matched:
+                n = next(n for n in named if _same(n, t, False))
+                mat[fams.index(t), cols.index(n)] += 1
+            else:
+                for n in left:
+                    mat[fams.index(t), cols.index(n) if n in cols else -1] += 1 / len(left)
     fig, ax = plt.subplots(figsize=(9, 7))
     ax.imshow(mat, cmap="Blues")
     ax.set_xticks(range(len(cols)), cols, rotation=60, ha="right", fontsize=8)
