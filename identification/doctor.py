@@ -23,7 +23,7 @@ import numpy as np
 from pneumatics.robot import Robot
 
 from .calibrate import fit_chambers, pressure_sigma
-from .data import prepare, split
+from .data import Experiment, prepare, split
 from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses
 from .mechanics import fit_rigid_body, torque_data
 from .pneumatic import PneumaticMods, Windows, replay
@@ -121,6 +121,12 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         findings.append(finding)
         tried.add(finding.scored.hyp.label)
         mods = finding.scored.mods
+
+    # the torque balance uses the measured pressures: remove the sensor offsets just found
+    if mods.sensor_offset_pa is not None and np.any(mods.sensor_offset_pa != 0):
+        td = torque_data(_corrected(exp, mods.sensor_offset_pa))
+        td_h = torque_data(_corrected(held, mods.sensor_offset_pa))
+        rfit = fit_rigid_body(td)
 
     # mechanical hypotheses, greedy (linear fits)
     base_extra = None
@@ -251,6 +257,12 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     }
     report["_replays"] = {"nominal": nominal_replay, "baseline": base_replay, "final": final_replay}
     return report
+
+
+def _corrected(exp: Experiment, offset_pa: np.ndarray) -> Experiment:
+    """The experiment with fitted pressure-sensor offsets taken out of the measured pressures."""
+    import dataclasses
+    return dataclasses.replace(exp, p=exp.p - offset_pa, p_at_t=exp.p_at_t - offset_pa)
 
 
 def _accept(candidates: list, keep: float) -> Finding | None:
