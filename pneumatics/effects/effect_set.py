@@ -34,30 +34,23 @@ class EffectSet:
     supply_droop_pa_per_kg_s: float = 0.0
     """supply pressure drop per kg/s of the total flow the valves draw (supply_droop)"""
 
-    def chamber_array(self, robot, attr: str) -> np.ndarray:
-        names = [f"{a}.{c}" for a, c in robot.chamber_names]
+    def _array(self, attr: str, kind: str, names: list) -> np.ndarray:
+        """(len(names),) values of the per-place effect ``attr``; 0 where it is off."""
         out = np.zeros(len(names))
         for key, v in getattr(self, attr).items():
             if key not in names:
-                raise UnknownNameError("chamber", key, names)
+                raise UnknownNameError(kind, key, names)
             out[names.index(key)] = v
         return out
 
+    def chamber_array(self, robot, attr: str) -> np.ndarray:
+        return self._array(attr, "chamber", [f"{a}.{c}" for a, c in robot.chamber_names])
+
     def actuator_array(self, robot, attr: str) -> np.ndarray:
-        out = np.zeros(len(robot.actuator_names))
-        for key, v in getattr(self, attr).items():
-            if key not in robot.actuator_names:
-                raise UnknownNameError("actuator", key, robot.actuator_names)
-            out[robot.actuator_names.index(key)] = v
-        return out
+        return self._array(attr, "actuator", robot.actuator_names)
 
     def joint_array(self, robot, attr: str) -> np.ndarray:
-        out = np.zeros(len(robot.joint_names))
-        for key, v in getattr(self, attr).items():
-            if key not in robot.joint_names:
-                raise UnknownNameError("joint", key, robot.joint_names)
-            out[robot.joint_names.index(key)] = v
-        return out
+        return self._array(attr, "joint", robot.joint_names)
 
     def friction_table(self, robot) -> np.ndarray:
         """(n_f, 5): dof address, Coulomb, extra breakaway, Stribeck velocity, viscous."""
