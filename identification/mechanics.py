@@ -15,6 +15,8 @@ import mujoco
 import numpy as np
 from scipy.optimize import lsq_linear
 
+from pneumatics.chamber import actuator_force
+
 from .data import Experiment
 from .lsq import Fit, _covariance
 
@@ -62,7 +64,7 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
     model = robot.model
     # equality constraints (e.g. a brace) are off in recordings of the free robot
     qadr, dadr = robot.qpos_index, robot.dof_index
-    forces = _forces(robot, exp.p)
+    forces = actuator_force(robot.tables, exp.p)
     tau_inv, tau_act = _inverse(model, qadr, dadr, exp.q_s, exp.qd, exp.qdd, robot.actuator_ids, forces)
     names, regs, lo, hi = [], [], [], []
     base = tau_inv
@@ -111,11 +113,6 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
 def _copy(model):
     import copy
     return copy.copy(model)
-
-
-def _forces(robot, p):
-    tab = robot.tables
-    return tab.area_a * p[:, 0::2] - tab.area_b * p[:, 1::2] - (tab.area_a - tab.area_b) * tab.room_pa
 
 
 def fit_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_names=(), extra_bounds=None):

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from pneumatics.chamber import actuator_force
 from pneumatics.effects.friction import friction_torque
 
 from .data import FINE_DT, Experiment
@@ -116,7 +117,7 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
     acc_p = np.zeros_like(p)
     for step in range(H * S):
         f = starts * S + step
-        forces = tab.area_a * p[:, 0::2] - tab.area_b * p[:, 1::2] - (tab.area_a - tab.area_b) * tab.room_pa
+        forces = actuator_force(tab, p)
         qd = np.array([d.qvel[dadr] for d in datas])
         tau = mmods.torque(qd)
         for w, d in enumerate(datas):

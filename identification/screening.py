@@ -23,7 +23,6 @@ class Scored:
     predicted_gain: float           # fraction of the training residual the score test expects to remove
     fit: object = None
     mods: object = None
-    train_gain: float = 0.0
     heldout_before: np.ndarray = None   # per-channel held-out RMS (chambers or joints)
     heldout_after: np.ndarray = None
 
@@ -90,9 +89,7 @@ def score_mechanical(td, exp, hyps, base_extra=None):
         extra, names, bounds = _stack(base_extra, reg, h)
         f = fit_rigid_body(td, extra, names, bounds)
         gain = 1.0 - f.rss / max(base.rss, 1e-300)
-        s = Scored(h, gain, fit=f)
-        s.train_gain = gain
-        out.append(s)
+        out.append(Scored(h, gain, fit=f))
     return out, base
 
 

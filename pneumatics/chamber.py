@@ -84,8 +84,10 @@ def chamber_geometry(tables: FluidTables, prev_length, length, dt):
 
 
 def actuator_force(tables: FluidTables, p):
-    """Force [N] (torque [N m] for vanes) of every actuator, (n_act,), from pressures (n_ch,)."""
-    p_a, p_b = p[0::2], p[1::2]
+    """Force [N] (torque [N m] for vanes) of every actuator from chamber pressures.
+
+    ``p`` is (..., n_ch), chambers a0, b0, a1, b1, ...; returns (..., n_act)."""
+    p_a, p_b = p[..., 0::2], p[..., 1::2]
     return tables.area_a * p_a - tables.area_b * p_b - (tables.area_a - tables.area_b) * tables.room_pa
 
 
