@@ -19,9 +19,23 @@ class UnknownModelError(KeyError):
         return self.args[0]
 
 
-def available() -> list[str]:
-    """Names of the models that ship with pneumasim."""
-    return sorted(p.name for p in ROOT.iterdir() if (p / "fluid.toml").is_file())
+VALVE_ARM = "valve_arm"
+"""The kind of the Kokoro-valve robots (arm2, humanoid38) that :func:`pneumatics.robot.load_robot`
+builds; other kinds (``jetpipe``, ``hydraulic``, ``bench``) have their own builders."""
+
+
+def available(kind: str | None = None) -> list[str]:
+    """Names of the models that ship with pneumasim; only those of ``kind`` if given."""
+    names = sorted(p.name for p in ROOT.iterdir() if (p / "fluid.toml").is_file())
+    return [n for n in names if kind is None or model_kind(n) == kind]
+
+
+def model_kind(name: str) -> str:
+    """The top-level ``kind = "..."`` of the model's fluid.toml (default ``valve_arm``)."""
+    import tomllib
+
+    doc = tomllib.loads(fluid_path(name).read_text())
+    return str(doc.get("kind", VALVE_ARM))
 
 
 def folder(name: str) -> Path:

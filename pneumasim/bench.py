@@ -125,7 +125,7 @@ def run_bench(quick: bool = False, out: str | Path = "runs/bench") -> dict:
     steps = 20_000 if quick else 100_000
     results = {}
     for name in ("arm2", "humanoid38"):
-        if name not in models.available():
+        if name not in models.available(models.VALVE_ARM):
             continue
         n = steps if name == "arm2" else steps // 4
         results[name] = bench_model(name, n, repeats=3)

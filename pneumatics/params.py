@@ -83,7 +83,13 @@ def _gas(table, where) -> GasCfg:
 def parse_fluid(doc: dict, where: str) -> FluidCfg:
     """Build a :class:`FluidCfg` from a parsed TOML document; ``where`` names the file."""
     known = {"gas", "supply", "control", "sensors", "valve", "actuator"}
+    kind = doc.get("kind", "valve_arm")
+    if kind != "valve_arm":
+        raise ConfigError(f"{where}: kind = {kind!r}; this loader builds only kind = 'valve_arm' models "
+                          "(Kokoro valves and cylinders)")
     for key in doc:
+        if key == "kind":
+            continue
         if key not in known:
             raise ConfigError(f"{where}: unknown table [{key}]; valid: {', '.join(sorted(known))}")
     valve_defaults = doc.get("valve", {})

@@ -21,7 +21,7 @@ PS, PR = 7e5, 1e5
 def smallest_dead_volume():
     """The smallest chamber dead volume [m^3] of any shipped model, and its valve row."""
     best = None
-    for name in models.available():
+    for name in models.available(models.VALVE_ARM):
         tab = load_robot(name).tables
         i = int(np.argmin(tab.dead_volume))
         if best is None or tab.dead_volume[i] < best[0]:

@@ -10,7 +10,7 @@ from pneumatics.tables import valve_areas_table
 import models
 
 
-@pytest.mark.parametrize("name", models.available())
+@pytest.mark.parametrize("name", models.available(models.VALVE_ARM))
 def test_one_step_matches_the_reference_on_random_states(name, rng):
     robot = load_robot(name)
     tab = robot.tables
@@ -30,7 +30,7 @@ def test_one_step_matches_the_reference_on_random_states(name, rng):
         np.testing.assert_allclose(ctrl, chamber.actuator_force(tab, ref), rtol=1e-9, atol=1e-9)
 
 
-@pytest.mark.parametrize("name", models.available())
+@pytest.mark.parametrize("name", models.available(models.VALVE_ARM))
 def test_simulation_fast_and_reference_agree(name, rng):
     robot = load_robot(name)
     runs = []
