@@ -40,6 +40,7 @@ class Experiment:
     fine_t: np.ndarray = field(default=None)       # (F,) 1 ms grid from t[0]
     fine_length: np.ndarray = field(default=None)  # (F, n_act) actuator lengths on the grid
     fine_q: np.ndarray = field(default=None)       # (F, J)
+    breaks: tuple = ()                              # sample indices where a pooled recording starts
 
     @property
     def rate_hz(self) -> float:
@@ -133,3 +134,43 @@ def split(rec: Recording, holdout_fraction: float = 0.3) -> tuple[Recording, Rec
     """(fit part, held-out part): the last ``holdout_fraction`` of the recording held out."""
     t_cut = rec.time[0] + (1 - holdout_fraction) * (rec.time[-1] - rec.time[0])
     return rec.slice(rec.time[0], t_cut), rec.slice(t_cut, rec.time[-1] + 1.0)
+
+
+def pool(exps: list[Experiment]) -> Experiment:
+    """Several prepared recordings as one experiment: each is shifted in time to follow the
+    previous one by one sample period, so that every array stays on one uniform grid, and the
+    joins are listed in ``breaks`` (replay windows and torque samples never straddle one).
+    Smoothing and differentiation were done per recording, so no spline crosses a join."""
+    if len(exps) == 1:
+        return exps[0]
+    rates = [e.rate_hz for e in exps]
+    if max(rates) - min(rates) > 1e-6 * max(rates):
+        raise RecordingError("recordings to pool must share one sample rate; got "
+                             + ", ".join(f"{e.rec.source}: {r:.4g} Hz" for e, r in zip(exps, rates)))
+    dt = 1.0 / rates[0]
+    n_sub = exps[0].n_sub
+    parts = {k: [] for k in ("t", "t_sensor", "q", "q_s", "qd", "qdd", "p", "u", "p_at_t", "fine_q", "fine_length")}
+    breaks, n, t_next = [], 0, exps[0].t[0]
+    for k, e in enumerate(exps):
+        shift = t_next - e.t[0]
+        if k:
+            breaks.append(n)
+            # the 1 ms points inside the joining sample period: hold the next recording's start
+            parts["fine_q"].append(np.repeat(e.fine_q[:1], n_sub - 1, axis=0))
+            parts["fine_length"].append(np.repeat(e.fine_length[:1], n_sub - 1, axis=0))
+        parts["t"].append(e.t + shift)
+        parts["t_sensor"].append(e.t_sensor + shift)
+        for key in ("q", "q_s", "qd", "qdd", "p", "u", "p_at_t", "fine_q", "fine_length"):
+            parts[key].append(getattr(e, key))
+        n += e.t.size
+        t_next = e.t[-1] + shift + dt
+    cat = {k: np.concatenate(v) for k, v in parts.items()}
+    first = exps[0]
+    out = Experiment(first.robot, first.rec, cat["t"], cat["t_sensor"], cat["q"], cat["q_s"], cat["qd"], cat["qdd"],
+                     cat["p"], cat["u"], first.averaged, cat["p_at_t"],
+                     cat["t"][0] + np.arange(cat["fine_q"].shape[0]) * FINE_DT, cat["fine_length"], cat["fine_q"],
+                     tuple(breaks))
+    expected = int(round((out.t[-1] - out.t[0]) / FINE_DT)) + 1
+    if out.fine_t.size != expected:  # each recording's grid must span whole milliseconds
+        raise RecordingError(f"pooling: fine grid of {out.fine_t.size} points, expected {expected}")
+    return out

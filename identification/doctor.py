@@ -23,7 +23,7 @@ import numpy as np
 from pneumatics.robot import Robot
 
 from .calibrate import fit_chambers, pressure_sigma
-from .data import Experiment, prepare, split
+from .data import Experiment, pool, prepare, split
 from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses
 from .mechanics import fit_rigid_body, torque_data
 from .pneumatic import PneumaticMods, Windows, replay
@@ -57,6 +57,7 @@ class Finding:
     inclusion: float = 1.0
     nrmse: dict = field(default_factory=dict)
     evidence: str = ""
+    alternative_places: list = field(default_factory=list)  # places these sensors cannot tell apart
 
 
 def _say(progress, msg):
@@ -69,23 +70,17 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     t_start = time.perf_counter()
     if not recordings:
         raise ValueError("no recordings")
-    ignored = [r.source for r in list(recordings[1:]) + list(holdouts[1:])]
-    if ignored:
-        import warnings
-        warnings.warn(f"doctor: fits {recordings[0].source} and holds out "
-                      f"{holdouts[0].source if holdouts else 'its last 30 %'}; pooling several recordings is not "
-                      f"implemented yet, so these are not used: {', '.join(ignored)}", stacklevel=2)
-    train_rec = recordings[0]
     if holdouts:
-        held_rec = holdouts[0]
-    else:
-        train_rec, held_rec = split(train_rec, 0.3)
+        train_recs, held_recs = list(recordings), list(holdouts)
+    else:  # the last 30 % of each recording is held out
+        pairs = [split(r, 0.3) for r in recordings]
+        train_recs, held_recs = [a for a, _ in pairs], [b for _, b in pairs]
     _say(progress, "reading and checking recordings")
-    exp = prepare(robot, train_rec)
-    held = prepare(robot, held_rec)
-    win = Windows.tile(len(exp.t), HORIZON)
-    fit_win = Windows.tile(len(exp.t), HORIZON, stride=2 * HORIZON)  # every other window: half the cost
-    win_h = Windows.tile(len(held.t), HORIZON)
+    exp = pool([prepare(robot, r) for r in train_recs])
+    held = pool([prepare(robot, r) for r in held_recs])
+    win = Windows.tile(len(exp.t), HORIZON, breaks=exp.breaks)
+    fit_win = Windows.tile(len(exp.t), HORIZON, stride=2 * HORIZON, breaks=exp.breaks)  # half the cost
+    win_h = Windows.tile(len(held.t), HORIZON, breaks=held.breaks)
     sigma = pressure_sigma(exp)
 
     # -- 2. calibration ------------------------------------------------------------------
@@ -134,7 +129,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     kept_mech = []
     for rnd in range(MAX_ROUNDS):
         _say(progress, f"scoring mechanical hypotheses (round {rnd + 1})")
-        hyps = [h for h in mechanical_hypotheses(robot) if h.label not in tried]
+        hyps = [h for h in mechanical_hypotheses(robot, exp, td) if h.label not in tried]
         scored, base = score_mechanical(td, exp, hyps, base_extra)
         base_h = torque_rms(td_h, base, None if base_extra is None else _regs(kept_mech, held, td_h))
         for s in scored:
@@ -144,8 +139,12 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         finding = _accept(scored, MECH_KEEP)
         if finding is None:
             break
+        if finding.family == "pressure_sensor_offset":
+            finding = _offset_place(finding, scored)
         findings.append(finding)
         best = finding.scored
+        tried.update(s.hyp.label for s in scored if s.hyp.family == best.hyp.family
+                     and s.hyp.where.get("actuator") == best.hyp.where.get("actuator") and "chamber" in s.hyp.where)
         tried.add(best.hyp.label)
         reg = best.hyp.regressor(exp, td)
         names = [p[0] for p in best.hyp.params]
@@ -159,6 +158,11 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         kept_mech.append(best.hyp)
         extra_terms += [(_mech_attr(name), best.hyp.joint) for name, *_ in best.hyp.params]
     final_rfit = fit_rigid_body(td, *base_extra) if base_extra else rfit
+    # pressure-sensor offsets found by the torque balance act on the chambers in the replays
+    term_hyps = [h for h in kept_mech for _ in h.params]
+    for (attr, _), v, hyp in zip(extra_terms, final_rfit.values[len(final_rfit.values) - len(extra_terms):], term_hyps):
+        if attr is None:
+            mods = h_apply_offset(mods, hyp.chambers[0], float(v), robot.tables.n_chambers)
 
     # -- locate: regimes and windows of each finding; unexplained residual ------------------
     _say(progress, "locating regimes and windows")
@@ -196,7 +200,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     rms_t = np.sqrt(np.mean((pred_t - meas_t) ** 2, axis=(0, 1)))
     base_rms = chamber_rms(held, win_h, mods_without_all(mods, findings))
     floor_h, floor_t = np.median(base_rms), np.median(rms_t)
-    explained = {c for f in findings if f.scored.hyp.kind == "pneumatic" for c in f.scored.hyp.chambers}
+    explained = {c for f in findings for c in f.scored.hyp.chambers}
     for c, (a, ch) in enumerate(robot.chamber_names):
         others = floor_h
         # above the chambers' common floor on held-out data and in training too: a held-out
@@ -221,6 +225,8 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     _say(progress, "coupled replays on held-out data (before/after)")
     mm_base = MechMods.from_fit(rfit, robot.joint_names)
     mm_final = MechMods.from_fit(final_rfit, robot.joint_names, extra_terms)
+    mm_final.end_stops = {h.joint: (h.fixed["stop_rad"]["value"], h.fixed["side_sign"]["value"])
+                          for h in kept_mech if h.family == "end_stop"}
     base_replay = coupled_replay(held, mods_without_all(mods, findings), mm_base)
     nominal_replay = coupled_replay(held, nominal, MechMods())
     final_replay = coupled_replay(held, mods, mm_final)
@@ -250,8 +256,8 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
                                              for c, (a, ch) in enumerate(robot.chamber_names)},
             "train_seconds": float(exp.t[-1] - exp.t[0]),
             "heldout_seconds": float(held.t[-1] - held.t[0]),
-            "heldout_source": held_rec.source,
-            "ignored_recordings": ignored,
+            "train_sources": [r.source for r in recordings],
+            "heldout_sources": [r.source for r in held_recs] if holdouts else "last 30 % of each recording",
             "seconds": time.perf_counter() - t_start,
         },
     }
@@ -300,13 +306,41 @@ def _regs(hyps, exp, td):
 def _params(s: Scored) -> dict:
     names = [p[0] for p in s.hyp.params]
     k = len(names)
-    return {n: {"value": float(v), "stderr": float(e)} for n, v, e in zip(names, s.fit.values[-k:], s.fit.stderr[-k:])}
+    out = {n: {"value": float(v), "stderr": float(e)} for n, v, e in zip(names, s.fit.values[-k:], s.fit.stderr[-k:])}
+    out.update(s.hyp.fixed)
+    return out
 
 
 def _mech_attr(param):
     """MechMods attribute of a mechanical hypothesis parameter."""
     return {"coulomb_nm": "coulomb_nm", "breakaway_extra_nm": "stiction_extra_nm",
-            "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad"}[param]
+            "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad",
+            "offset_pa": None, "stiffness_nm_per_rad": "end_stop_nm_per_rad"}[param]
+
+
+def h_apply_offset(mods: PneumaticMods, c: int, offset_pa: float, n_ch: int) -> PneumaticMods:
+    arr = np.zeros(n_ch) if mods.sensor_offset_pa is None else mods.sensor_offset_pa.copy()
+    arr[c] = offset_pa
+    return mods.copy(sensor_offset_pa=arr)
+
+
+def _offset_place(finding: Finding, scored: list) -> Finding:
+    """Chambers a and b of one actuator explain a constant actuator-force error equally well in
+    the torque balance (offset_a * A_a = -offset_b * A_b), and the pressure replays, restarted
+    from measured pressures, are blind to a constant offset away from the supply and room
+    asymptotes.  So the finding names the actuator and both readings: an isolability statement,
+    not a guess.  The replays carry it on chamber a (equivalent for the torque)."""
+    act = finding.where["actuator"]
+    cands = {s.hyp.where["chamber"]: s for s in scored
+             if s.hyp.family == "pressure_sensor_offset" and s.hyp.where["actuator"] == act}
+    primary = cands.get("a", finding.scored)
+    f = Finding(primary, primary.hyp.family, {"actuator": act}, _params(primary), primary.heldout_gain,
+                finding.alternatives)
+    for ch, s in cands.items():
+        if s is not primary:
+            f.params[f"offset_pa_if_chamber_{ch}"] = _params(s)["offset_pa"]
+    f.alternative_places = [{"actuator": act, "chamber": ch} for ch in sorted(cands)]
+    return f
 
 
 def _without(mods: PneumaticMods, f: Finding) -> PneumaticMods:
@@ -317,8 +351,11 @@ def _without(mods: PneumaticMods, f: Finding) -> PneumaticMods:
 
 def mods_without_all(mods, findings):
     for f in findings:
-        if f.scored.hyp.kind == "pneumatic":
+        h = f.scored.hyp
+        if h.kind == "pneumatic":
             mods = _without(mods, f)
+        elif h.family == "pressure_sensor_offset":  # found by the torque balance
+            mods = h_apply_offset(mods, h.chambers[0], 0.0, mods.supply_scale.size)
     return mods
 
 
@@ -349,6 +386,9 @@ def _evidence(f: Finding) -> str:
     p = ", ".join(f"{k} = {v['value']:.3g} ± {v['stderr']:.2g}" for k, v in f.params.items())
     where = " ".join(f"{k} {v}" for k, v in f.where.items())
     alt = f"; {' or '.join([f.family] + f.alternatives)}: these sensors cannot tell them apart" if f.alternatives else ""
+    if f.alternative_places:
+        alt += ("; a constant force error of this cylinder: an offset on chamber a or on chamber b "
+                "(offset_pa_if_chamber_b), these sensors cannot tell which")
     return (f"{f.family} at {where} ({p}) removes {100 * f.heldout_gain:.0f} % of the held-out "
             f"{'pressure' if f.scored.hyp.kind == 'pneumatic' else 'torque'} residual, concentrated in {f.regime}{alt}")
 
@@ -364,6 +404,7 @@ def _finding_json(f: Finding) -> dict:
         "heldout_channel": f.nrmse.get("channel"),
         "heldout_equation_error_reduction": f.heldout_gain,
         "alternatives": f.alternatives,
+        "alternative_places": f.alternative_places,
         "inclusion_probability": f.inclusion,
         "evidence": f.evidence,
     }

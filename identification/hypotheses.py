@@ -25,6 +25,7 @@ class Hypothesis:
     joint: int | None = None
     apply: Callable | None = None           # (mods, x) -> mods
     regressor: Callable | None = None       # (exp, td) -> (N, J, E)
+    fixed: dict = field(default_factory=dict)  # parameters chosen before the linear fit: name -> {value, stderr}
 
     @property
     def label(self) -> str:
@@ -90,8 +91,47 @@ def _joint_regs(j, fns):
     return reg
 
 
-def mechanical_hypotheses(robot) -> list[Hypothesis]:
+def _penetration(q, stop, side):
+    """How far q is past an end stop at ``stop`` [rad] on ``side`` (+1 upper, -1 lower); 0 before it."""
+    return np.maximum(q - stop, 0.0) if side > 0 else np.minimum(q - stop, 0.0)
+
+
+def end_stop_hypotheses(robot, exp, td, n_grid: int = 16) -> list[Hypothesis]:
+    """An end stop (bumper) inside the model's joint range: a one-sided spring torque
+    -k (q - q_stop) past q_stop.  The equation error then carries +k * penetration (tau_act
+    - tau_inv = -tau_stop); k enters linearly, q_stop is chosen on a grid over the outer 15 % of
+    the angles the training data visited (profile least squares; its stderr from the profile's
+    Delta chi^2 = 1 interval)."""
+    from .mechanics import fit_rigid_body
+
+    base = fit_rigid_body(td)
     out = []
+    for j, name in enumerate(robot.joint_names):
+        qv = exp.q_s[td.valid, j]
+        for side in (1, -1):
+            qs = np.quantile(qv, np.linspace(0.85, 0.995, n_grid) if side > 0 else np.linspace(0.15, 0.005, n_grid))
+            rss = []
+            for stop in qs:
+                reg = np.zeros(exp.q_s.shape + (1,))
+                reg[:, j, 0] = _penetration(exp.q_s[:, j], stop, side)
+                rss.append(fit_rigid_body(td, reg, ["k"], (np.zeros(1), np.full(1, np.inf))).rss)
+            rss = np.array(rss)
+            k = int(np.argmin(rss))
+            sigma2 = rss[k] / max(base.n - len(base.values) - 2, 1)
+            inside = qs[(rss - rss[k]) / sigma2 <= 1.0]
+            stderr = max(float(np.ptp(inside)) / 2, float(np.abs(np.diff(qs)).mean()) / 2)
+            stop = float(qs[k])
+            out.append(Hypothesis(
+                "end_stop", {"joint": name}, "mechanical", [("stiffness_nm_per_rad", 0.0, 0.0, np.inf, 0.0)], joint=j,
+                regressor=_joint_reg(j, lambda e, td_, j=j, stop=stop, side=side: _penetration(e.q_s[:, j], stop, side)),
+                fixed={"stop_rad": {"value": stop, "stderr": stderr}, "side_sign": {"value": float(side), "stderr": 0.0}}))
+    return out
+
+
+def mechanical_hypotheses(robot, exp=None, td=None) -> list[Hypothesis]:
+    """Friction, angle-sensor offsets and pressure-sensor offsets at every joint/chamber; end
+    stops too when the training data (``exp``, ``td``) are given to place them."""
+    out = end_stop_hypotheses(robot, exp, td) if exp is not None else []
     for j, name in enumerate(robot.joint_names):
         w = {"joint": name}
         out += [
@@ -107,4 +147,12 @@ def mechanical_hypotheses(robot) -> list[Hypothesis]:
             Hypothesis("angle_sensor_offset", w, "mechanical", [("offset_rad", 0.0, -0.2, 0.2, 0.0)], joint=j,
                        regressor=lambda e, td, j=j: -td.dtau_dq[:, :, j:j + 1]),
         ]
+    # a pressure-sensor offset seen by the torque balance: a constant actuator force error.
+    # Chambers a and b of one actuator give (nearly) collinear regressors here; the doctor
+    # picks the chamber by the pressure replays (see doctor._pick_offset_chamber).
+    for c, (a, ch) in enumerate(robot.chamber_names):
+        j = robot.joint_names.index(a) if a in robot.joint_names else 0
+        out.append(Hypothesis("pressure_sensor_offset", {"actuator": a, "chamber": ch}, "mechanical",
+                              [("offset_pa", 0.0, -5e4, 5e4, 0.0)], chambers=[c], joint=j,
+                              regressor=lambda e, td, c=c: td.dtau_dp[:, :, c:c + 1]))
     return out

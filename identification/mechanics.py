@@ -34,17 +34,21 @@ class TorqueData:
     upper: np.ndarray
     valid: np.ndarray
     dtau_dq: np.ndarray = None  # (N, J, J) d tau_inv / d q_k (angle offsets)
+    dtau_dp: np.ndarray = None  # (N, J, C) d tau_act / d p_c per Pa measured (pressure-sensor offsets)
 
     @property
     def residual(self) -> np.ndarray:
         return self.tau_act - self.tau_inv
 
 
-def _inverse(model, qadr, dadr, q, qd, qdd, ids=None, forces=None):
+def _inverse(model, qadr, dadr, q, qd, qdd, ids=None, forces=None, moments=False):
+    """Inverse-dynamics torques (N, J); with ``forces`` (N, A) also the actuators' joint torques
+    (N, J); with ``moments`` also d tau / d F of every actuator (N, J, A)."""
     d = mujoco.MjData(model)
     n = q.shape[0]
     out = np.empty((n, len(dadr)))
     act = np.empty((n, len(dadr))) if forces is not None else None
+    mom = np.empty((n, len(dadr), len(ids))) if moments else None
     for k in range(n):
         d.qpos[qadr] = q[k]
         d.qvel[dadr] = qd[k]
@@ -56,6 +60,14 @@ def _inverse(model, qadr, dadr, q, qd, qdd, ids=None, forces=None):
             d.ctrl[ids] = forces[k]
             mujoco.mj_fwdActuation(model, d)
             act[k] = d.qfrc_actuator[dadr]
+            if moments:  # the force law is linear: one unit force per actuator gives its moment arms
+                for i, a in enumerate(ids):
+                    d.ctrl[:] = 0
+                    d.ctrl[a] = 1.0
+                    mujoco.mj_fwdActuation(model, d)
+                    mom[k, :, i] = d.qfrc_actuator[dadr]
+    if moments:
+        return out, act, mom
     return out, act
 
 
@@ -65,7 +77,14 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
     # equality constraints (e.g. a brace) are off in recordings of the free robot
     qadr, dadr = robot.qpos_index, robot.dof_index
     forces = actuator_force(robot.tables, exp.p)
-    tau_inv, tau_act = _inverse(model, qadr, dadr, exp.q_s, exp.qd, exp.qdd, robot.actuator_ids, forces)
+    tau_inv, tau_act, moment = _inverse(model, qadr, dadr, exp.q_s, exp.qd, exp.qdd, robot.actuator_ids, forces,
+                                        moments=True)
+    # F = A_a p_a - A_b p_b - ... (actuator_force): a measured pressure p_c = true + offset adds
+    # moment * (+A_a | -A_b) * offset to the actuator torque
+    tab = robot.tables
+    dtau_dp = np.empty(moment.shape[:2] + (2 * moment.shape[2],))
+    dtau_dp[:, :, 0::2] = moment * np.asarray(tab.area_a)
+    dtau_dp[:, :, 1::2] = -moment * np.asarray(tab.area_b)
     names, regs, lo, hi = [], [], [], []
     base = tau_inv
     # mass-and-inertia scale per body that moves with a joint
@@ -105,9 +124,10 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
     rng_ = robot.joint_range()
     near = np.any((exp.q_s < rng_[:, 0] + limit_margin_rad) | (exp.q_s > rng_[:, 1] - limit_margin_rad), axis=1)
     valid = ~near
-    valid[:edge] = False
-    valid[-edge:] = False
-    return TorqueData(tau_act, tau_inv, np.stack(regs, axis=2), names, np.array(lo), np.array(hi), valid, dtau_dq)
+    for b in (0, *exp.breaks, valid.size):  # the ends of every pooled recording
+        valid[max(b - edge, 0):b + edge] = False
+    return TorqueData(tau_act, tau_inv, np.stack(regs, axis=2), names, np.array(lo), np.array(hi), valid, dtau_dq,
+                      dtau_dp)
 
 
 def _copy(model):

@@ -63,10 +63,16 @@ class Windows:
     horizon: int
 
     @classmethod
-    def tile(cls, n_samples: int, horizon: int, stride: int | None = None, first: int = 2) -> "Windows":
+    def tile(cls, n_samples: int, horizon: int, stride: int | None = None, first: int = 2,
+             breaks: tuple = (), settle: int = 10) -> "Windows":
+        """Windows every ``stride`` samples; with ``breaks`` (joins of pooled recordings) none
+        straddles a join, and each segment's first ``settle`` samples are skipped (valve
+        memory — lag, hysteresis — carried over the join)."""
         stride = stride or horizon
-        starts = np.arange(first, n_samples - horizon - 1, stride)
-        return cls(starts, horizon)
+        edges = [0, *breaks, n_samples]
+        starts = [np.arange(a + (first if i == 0 else settle), b - horizon - 1, stride)
+                  for i, (a, b) in enumerate(zip(edges[:-1], edges[1:]))]
+        return cls(np.concatenate(starts).astype(int), horizon)
 
 
 def effective_commands(exp: Experiment, mods: PneumaticMods) -> np.ndarray:

@@ -16,7 +16,7 @@ from pneumatics.chamber import actuator_force
 from pneumatics.effects.friction import friction_torque
 
 from .data import FINE_DT, Experiment
-from .pneumatic import ChamberModel, PneumaticMods, effective_commands, initial_pressure
+from .pneumatic import ChamberModel, PneumaticMods, Windows, effective_commands, initial_pressure
 
 
 @dataclass
@@ -30,6 +30,8 @@ class MechMods:
     stiction_extra_nm: np.ndarray = None
     viscous_nm_s: np.ndarray = None
     angle_offset_rad: np.ndarray = None
+    end_stop_nm_per_rad: np.ndarray = None             # stiffness of an end stop (end_stop)
+    end_stops: dict = field(default_factory=dict)      # joint index -> (stop_rad, side +1/-1)
 
     @classmethod
     def from_fit(cls, fit, joint_names, extra_terms=()) -> "MechMods":
@@ -44,6 +46,8 @@ class MechMods:
             elif kind == "armature_scale":
                 m.armature_scale[where] = float(v)
         for (attr, j), v in zip(extra_terms, fit.values[len(fit.values) - len(extra_terms):]):
+            if attr is None:  # a term acting on the chambers (a pressure-sensor offset), not the body
+                continue
             arr = getattr(m, attr)
             arr = np.zeros(J) if arr is None else arr
             arr[j] += v  # terms of several findings at one joint add up
@@ -62,13 +66,20 @@ class MechMods:
             m.dof_armature[m.joint(joint).dofadr[0]] *= 1 + s
         return m
 
-    def torque(self, qd: np.ndarray) -> np.ndarray | None:
-        if self.coulomb_nm is None and self.stiction_extra_nm is None and self.viscous_nm_s is None:
+    def torque(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray | None:
+        """(W, J) friction and end-stop torques at joint angles q and velocities qd (W, J)."""
+        stops = self.end_stop_nm_per_rad is not None and self.end_stops
+        if self.coulomb_nm is None and self.stiction_extra_nm is None and self.viscous_nm_s is None and not stops:
             return None
         z = np.zeros_like(qd)
-        return friction_torque(qd, z + (0 if self.coulomb_nm is None else self.coulomb_nm),
-                               z + (0 if self.stiction_extra_nm is None else self.stiction_extra_nm),
-                               0.1, z + (0 if self.viscous_nm_s is None else self.viscous_nm_s))
+        tau = friction_torque(qd, z + (0 if self.coulomb_nm is None else self.coulomb_nm),
+                              z + (0 if self.stiction_extra_nm is None else self.stiction_extra_nm),
+                              0.1, z + (0 if self.viscous_nm_s is None else self.viscous_nm_s))
+        if stops:
+            for j, (stop, side) in self.end_stops.items():
+                pen = np.maximum(q[:, j] - stop, 0.0) if side > 0 else np.minimum(q[:, j] - stop, 0.0)
+                tau[:, j] -= self.end_stop_nm_per_rad[j] * pen
+        return tau
 
 
 @dataclass
@@ -92,7 +103,7 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
     model = mmods.model(robot.model)
     S = exp.n_sub
     H = int(round(horizon_s * exp.rate_hz))
-    starts = np.arange(2, len(exp.t) - H - 1, H)
+    starts = Windows.tile(len(exp.t), H, breaks=exp.breaks).starts
     W = starts.size
     J = len(robot.joint_names)
     qadr, dadr, ids = robot.qpos_index, robot.dof_index, robot.actuator_ids
@@ -119,7 +130,7 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
         f = starts * S + step
         forces = actuator_force(tab, p)
         qd = np.array([d.qvel[dadr] for d in datas])
-        tau = mmods.torque(qd)
+        tau = mmods.torque(np.array([d.qpos[qadr] for d in datas]), qd)
         for w, d in enumerate(datas):
             d.ctrl[ids] = forces[w]
             if tau is not None:

@@ -15,6 +15,7 @@ hand, call :meth:`Simulation.sync` (or :meth:`reset` with ``qpos=``).
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import warnings
 from dataclasses import dataclass
@@ -71,20 +72,29 @@ class Simulation:
         if kernel not in ("fast", "reference"):
             raise PneumasimError(f"unknown kernel {kernel!r}; valid: fast, reference")
         self.robot = robot
+        self.effects = effects or EffectSet()
         self.model = robot.model
+        if self.effects.end_stop:  # end stops narrow the joint limits of this simulation's own copy
+            self.model = copy.copy(robot.model)
+            self.effects.apply_end_stops(robot, self.model)
         self.data = mujoco.MjData(self.model)
         self.kernel = kernel
-        self.effects = effects or EffectSet()
+        self._line_delay, line_volume = self.effects.line_arrays(robot)
         self.tables = dataclasses.replace(
             robot.tables, external_leak_m2=self.effects.chamber_array(robot, "external_leak_m2"),
             piston_leak_m2=self.effects.actuator_array(robot, "piston_leak_m2"),
-            supply_droop_pa_per_kg_s=self.effects.supply_droop_pa_per_kg_s)
+            supply_droop_pa_per_kg_s=self.effects.supply_droop_pa_per_kg_s,
+            dead_volume=robot.tables.dead_volume + line_volume)
+        self._lag = self.effects.chamber_array(robot, "valve_lag_s")
+        # valve_lag / line_dynamics move the spool between commands: step one physics step at a time
+        self._valve_dynamics = bool(np.any(self._lag > 0) or np.any(self._line_delay > 0))
         self._valve_leak = self.effects.chamber_array(robot, "valve_leak_m2")
         self._hysteresis = self.effects.chamber_array(robot, "valve_hysteresis_v")
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
         self._q_offset = self.effects.joint_array(robot, "angle_offset_rad")
         self._fric = self.effects.friction_table(robot)
         self.spool = np.zeros(self.tables.n_chambers)  # command the spool follows (hysteresis)
+        self.spool_position = np.zeros(self.tables.n_chambers)  # the spool after lag and line delay
         n_ch = self.tables.n_chambers
         self.pressure = np.full(n_ch, self.tables.room_pa)
         self.command = np.array(self.tables.valve[:, 0])  # each valve's null
@@ -114,6 +124,8 @@ class Simulation:
         self.pressure[:] = self.tables.room_pa if pressure_pa is None else pressure_pa
         self.command[:] = self.tables.valve[:, 0]
         self.spool[:] = self.command
+        self.spool_position[:] = self.command
+        self._spool_history = [(-np.inf, self.spool.copy())]  # (time set, spool target) for line delays
         self._packed[2][13] = self.tables.supply_pa  # supply pressure in effect (supply_droop)
         self._update_areas()
         self._clip_warned = False
@@ -163,12 +175,36 @@ class Simulation:
         np.clip(u, lo, hi, out=self.command)
         # valve_hysteresis: the spool follows the command through a play of +-h
         self.spool[:] = np.minimum(np.maximum(self.spool, self.command - self._hysteresis), self.command + self._hysteresis)
+        if self._valve_dynamics:
+            self._spool_history.append((self.time, self.spool.copy()))
+            return  # the areas follow step by step (_advance_spool)
+        self.spool_position[:] = self.spool
         self._update_areas()
 
-    def _update_areas(self):
-        a_s, a_e = valve_areas_table(self.tables, self.spool)
+    def _advance_spool(self):
+        """valve_lag and line_dynamics over the coming physics step: the spool target delayed by
+        each chamber's line delay (a transport delay of the flow, modelled on the valve side, as in
+        Richer & Hurmuzlu 2000's line model), then the exact first-order lag, evaluated at mid-step."""
+        t, dt = self.time, self.dt
+        hist = self._spool_history
+        while len(hist) > 1 and hist[1][0] + self._line_delay.max() <= t - dt:
+            hist.pop(0)  # entries every chamber has passed
+        target = hist[0][1].copy()
+        for t_set, u in hist[1:]:
+            due = t_set + self._line_delay <= t + 1e-9
+            target[due] = u[due]
+        x = self.spool_position
+        with np.errstate(divide="ignore"):
+            decay_half = np.where(self._lag > 0, np.exp(-0.5 * dt / np.maximum(self._lag, 1e-300)), 0.0)
+        mid = target + (x - target) * decay_half
+        x[:] = target + (x - target) * decay_half ** 2
+        self._update_areas(mid)
+
+    def _update_areas(self, spool=None):
+        spool = self.spool_position if spool is None else spool
+        a_s, a_e = valve_areas_table(self.tables, spool)
         if self._valve_leak.any():  # valve_leak: the spool does not shut near null
-            g = self._valve_leak * np.exp(-((self.spool - self.tables.valve[:, 0]) / self.effects.valve_leak_width_v) ** 2)
+            g = self._valve_leak * np.exp(-((spool - self.tables.valve[:, 0]) / self.effects.valve_leak_width_v) ** 2)
             a_s, a_e = a_s + g, a_e + g
         self.areas[:, 0], self.areas[:, 1] = a_s, a_e
 
@@ -178,6 +214,14 @@ class Simulation:
 
         The pressures, qpos and qvel at each new instant are added into ``self.sums``
         (see :meth:`take_mean`), for DAQ-style sensor averaging."""
+        if self._valve_dynamics:
+            for _ in range(n):
+                self._advance_spool()
+                self._physics_steps(1)
+            return
+        self._physics_steps(n)
+
+    def _physics_steps(self, n: int):
         m, d = self.model, self.data
         self._n_summed += n
         if self.kernel == "fast" and run_steps_compiled is not None:

@@ -89,3 +89,24 @@ def test_gaps_in_time_are_refused(tmp_path):
     gap = Recording(rec.time[keep], {k: v[keep] for k, v in rec.columns.items()}, {}, "gap.csv")
     with pytest.raises(RecordingError, match="not uniform"):
         diagnose(load_robot("arm2"), [gap])
+
+
+def test_pooled_recordings_keep_their_joins_out_of_windows_and_torque_samples():
+    from identification.data import pool, prepare
+    from identification.mechanics import torque_data
+    from identification.pneumatic import Windows
+
+    robot = load_robot("arm2")
+    rec = read_csv(BLIND / "case_befd9d0f.csv")
+    mid = rec.time[0] + 0.5 * (rec.time[-1] - rec.time[0])
+    parts = [prepare(robot, rec.slice(rec.time[0], mid)), prepare(robot, rec.slice(mid, rec.time[-1] + 1))]
+    exp = pool(parts)
+    n0 = parts[0].t.size
+    assert exp.breaks == (n0,) and exp.t.size == n0 + parts[1].t.size
+    assert np.allclose(np.diff(exp.t), np.diff(rec.time).mean(), rtol=1e-6)  # one uniform grid
+    assert exp.fine_t.size == int(round((exp.t[-1] - exp.t[0]) / 1e-3)) + 1
+    np.testing.assert_array_equal(exp.p[n0:], parts[1].p)
+    win = Windows.tile(exp.t.size, 30, breaks=exp.breaks)
+    assert not np.any((win.starts < n0) & (win.starts + 31 >= n0))  # no window straddles the join
+    td = torque_data(exp)
+    assert not td.valid[n0 - 5:n0 + 5].any() and td.valid[n0 + 50]

@@ -120,3 +120,74 @@ def test_sensor_offsets_show_in_observations_only():
     sim.reset(pressure_pa=4e5)
     obs = sim.observe()
     assert obs.p[2] == 4e5 + 5000.0 and obs.q[0] == 0.01 and sim.pressure[2] == 4e5
+
+
+def _run(effects, steps=300, kernel="fast"):
+    sim = Simulation(load_robot("arm2"), kernel=kernel, effects=effects)
+    sim.reset(pressure_pa=4e5)
+    out = []
+    for k in range(steps // 10):
+        sim.set_command([6.5, 3.5, 4.0, 6.0] if (k // 8) % 2 == 0 else [3.5, 6.5, 6.0, 4.0])
+        sim.step(10)
+        out.append(np.r_[sim.pressure, sim.data.qpos])
+    return sim, np.array(out)
+
+
+def test_step_by_step_valve_path_equals_the_batched_kernel_when_the_valve_is_ideal():
+    """valve_lag/line_dynamics step one physics step at a time; with a vanishing lag that path
+    must reproduce the batched compiled loop (same physics, same order of operations)."""
+    _, batched = _run(EffectSet())
+    sim, stepped = _run(EffectSet(valve_lag_s={"elbow.a": 1e-12}))
+    assert sim._valve_dynamics
+    np.testing.assert_allclose(stepped, batched, rtol=1e-10, atol=1e-9)
+
+
+def test_valve_lag_spool_follows_the_exact_first_order_response():
+    tau, dt = 0.02, 1e-3
+    sim = Simulation(load_robot("arm2"), effects=EffectSet(valve_lag_s={"shoulder.a": tau}))
+    sim.set_command([8.0, 5.0, 5.0, 5.0])
+    sim.step(20)
+    assert abs(sim.spool_position[0] - (8.0 - 3.0 * np.exp(-20 * dt / tau))) < 1e-12
+    assert np.all(sim.spool_position[1:] == 5.0)  # the other valves are ideal
+
+
+def test_line_delay_holds_the_old_spool_for_the_delay_then_switches():
+    sim = Simulation(load_robot("arm2"), effects=EffectSet(line_dynamics={"elbow.b": {"delay_s": 0.015, "volume_m3": 0.0}}))
+    sim.set_command([5.0, 5.0, 5.0, 9.0])
+    sim.step(14)
+    assert sim.spool_position[3] == 5.0
+    sim.step(2)
+    assert sim.spool_position[3] == 9.0
+
+
+def test_line_volume_slows_the_chamber_like_a_larger_dead_volume():
+    """The tube's volume adds to the dead volume: the pressure rises more slowly after a step."""
+    vol = 3e-5
+    robot = load_robot("arm2")
+    plain = Simulation(robot)
+    lined = Simulation(robot, effects=EffectSet(line_dynamics={"shoulder.a": {"delay_s": 0.0, "volume_m3": vol}}))
+    assert lined.tables.dead_volume[0] == robot.tables.dead_volume[0] + vol
+    for s in (plain, lined):
+        s.model.eq_active0[:] = 1  # brace: constant volumes
+        s.reset(pressure_pa=1e5)
+        s.set_command([9.0, 5.0, 5.0, 5.0])
+        s.step(30)
+    assert lined.pressure[0] < plain.pressure[0] - 2e3
+    robot.model.eq_active0[:] = 0
+
+
+def test_end_stop_stops_the_joint_inside_the_model_limit():
+    robot = load_robot("arm2")
+    jid = robot.model.joint("shoulder").id
+    hi = robot.model.jnt_range[jid, 1]
+    sim = Simulation(robot, effects=EffectSet(end_stop={"shoulder": {"upper_intrusion_rad": 0.2}}))
+    assert robot.model.jnt_range[jid, 1] == hi  # the robot's own model is untouched
+    sim.model.opt.gravity[:] = 0
+    sim.reset(pressure_pa=4e5)
+    sim.set_command([10.0, 0.0, 5.0, 5.0])
+    q = []
+    for _ in range(100):
+        sim.step(10)
+        q.append(sim.data.qpos[sim.robot.qpos_index[0]])
+    assert max(q) < hi - 0.2 + 0.03          # the bumper yields a little, never to the old limit
+    assert q[-1] > hi - 0.2 - 0.03           # and the joint rests on it

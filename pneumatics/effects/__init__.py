@@ -12,11 +12,13 @@ and the mismatch finder tests the same physics as hypotheses
 | external_leak | orifice from a chamber to the room (`chamber.leak_flows`) | kernel | yes |
 | piston_leak | orifice between chambers a and b, conserving the cylinder's air | kernel | yes |
 | valve_hysteresis | play operator between command and spool (`valve_dynamics.play`) | at each command | yes |
-| valve_lag | first-order lag of the spool (`valve_dynamics.first_order_lag`) | no | yes |
-| line_dynamics | transport delay of the tube (`valve_dynamics.dead_time`) | no | yes (as a delay) |
-| pressure_sensor_offset, angle_sensor_offset | additive sensor offsets | observations | yes |
-| supply_droop | supply pressure falls with the total supply flow | no | yes |
-| heat_transfer, end_stop, backlash, force_sensor_offset | — | not yet | not yet |
+| valve_lag | first-order lag of the spool (`valve_dynamics.first_order_lag`) | spool stepped per physics step | yes |
+| line_dynamics | tube between valve and chamber: transport delay + its volume | spool delay, dead volume | yes (delay) |
+| pressure_sensor_offset, angle_sensor_offset | additive sensor offsets | observations | yes (pressure and torque balance) |
+| supply_droop | supply pressure falls with the total supply flow | kernel | yes |
+| end_stop | a bumper inside the joint range: one-sided spring past the stop | MuJoCo soft joint limit | yes (stop on a grid, stiffness fitted) |
+| heat_transfer | finite gas-wall heat exchange (bench chambers) | bench models | bench doctor |
+| backlash, force_sensor_offset | — | not yet | force offset: bench doctor |
 """
 
 #: every family name the doctor can report (DESIGN.md; extend, never rename)

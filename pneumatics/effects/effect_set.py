@@ -11,6 +11,10 @@ import numpy as np
 
 from ..errors import UnknownNameError
 
+END_STOP_TIMECONST_S = 0.005
+"""MuJoCo solref time constant of an end-stop bumper [s]: a stiff rubber pad, critically damped
+(about 0.01 rad of give under full pressure on arm2; MuJoCo asks for at least 2 timesteps)."""
+
 
 @dataclass
 class EffectSet:
@@ -33,6 +37,15 @@ class EffectSet:
     """joint -> sensor reads true + offset [rad] (angle_sensor_offset)"""
     supply_droop_pa_per_kg_s: float = 0.0
     """supply pressure drop per kg/s of the total flow the valves draw (supply_droop)"""
+    valve_lag_s: dict = field(default_factory=dict)
+    """chamber -> time constant of the spool's first-order lag behind its command [s] (valve_lag)"""
+    line_dynamics: dict = field(default_factory=dict)
+    """chamber -> {"delay_s": transport delay of the tube between valve and chamber [s],
+    "volume_m3": the tube's volume, added to the chamber's dead volume [m^3]} (line_dynamics)"""
+    end_stop: dict = field(default_factory=dict)
+    """joint -> {"upper_intrusion_rad" or "lower_intrusion_rad": how far inside the model's joint
+    limit a rubber bumper stops the joint [rad]} (end_stop); MuJoCo's own soft joint limit, with
+    the bumper's time constant END_STOP_TIMECONST_S"""
 
     def _array(self, attr: str, kind: str, names: list) -> np.ndarray:
         """(len(names),) values of the per-place effect ``attr``; 0 where it is off."""
@@ -52,6 +65,30 @@ class EffectSet:
     def joint_array(self, robot, attr: str) -> np.ndarray:
         return self._array(attr, "joint", robot.joint_names)
 
+    def line_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
+        """(delay_s, volume_m3), each (n_ch,), of the line_dynamics effects."""
+        names = [f"{a}.{c}" for a, c in robot.chamber_names]
+        delay, volume = np.zeros(len(names)), np.zeros(len(names))
+        for key, v in self.line_dynamics.items():
+            if key not in names:
+                raise UnknownNameError("chamber", key, names)
+            delay[names.index(key)] = v.get("delay_s", 0.0)
+            volume[names.index(key)] = v.get("volume_m3", 0.0)
+        return delay, volume
+
+    def apply_end_stops(self, robot, model):
+        """Narrow the joint limits of ``model`` (a copy of the robot's) to the end stops."""
+        for joint, v in self.end_stop.items():
+            if joint not in robot.joint_names:
+                raise UnknownNameError("joint", joint, robot.joint_names)
+            jid = model.joint(joint).id
+            lo, hi = model.jnt_range[jid]
+            if not model.jnt_limited[jid]:
+                lo, hi = -np.pi, np.pi
+            model.jnt_limited[jid] = 1
+            model.jnt_range[jid] = (lo + v.get("lower_intrusion_rad", 0.0), hi - v.get("upper_intrusion_rad", 0.0))
+            model.jnt_solref[jid] = (END_STOP_TIMECONST_S, 1.0)
+
     def friction_table(self, robot) -> np.ndarray:
         """(n_f, 5): dof address, Coulomb, extra breakaway, Stribeck velocity, viscous."""
         rows = []
@@ -67,4 +104,4 @@ class EffectSet:
     def empty(self) -> bool:
         return not any((self.friction, self.valve_leak_m2, self.external_leak_m2, self.piston_leak_m2,
                         self.valve_hysteresis_v, self.pressure_offset_pa, self.angle_offset_rad,
-                        self.supply_droop_pa_per_kg_s))
+                        self.supply_droop_pa_per_kg_s, self.valve_lag_s, self.line_dynamics, self.end_stop))
