@@ -38,6 +38,15 @@ FAMILIES = {
     "pressure_sensor_offset": ("chamber", lambda r: {"pressure_offset_pa": r.choice([-1, 1]) * r.uniform(8e3, 2e4)}),
     "angle_sensor_offset": ("joint", lambda r: {"angle_offset_rad": r.choice([-1, 1]) * r.uniform(0.03, 0.06)}),
     "supply_droop": ("supply", lambda r: {"supply_droop_pa_per_kg_s": r.uniform(4e7, 1e8)}),
+    "valve_lag": ("chamber", lambda r: {"valve_lag_s": r.uniform(0.015, 0.04)}),
+    # a longer tube than the model knows: 1-3 cm^3 more (4 mm bore, 8-24 cm; the model's dead
+    # volumes are 3-4 cm^3) and an effective delay of 10-30 ms: the acoustic delay stretched by
+    # the line's resistance and capacitance (Richer & Hurmuzlu 2000)
+    "line_dynamics": ("chamber", lambda r: {"line_dynamics": {"delay_s": r.uniform(0.01, 0.03),
+                                                              "volume_m3": r.uniform(1e-6, 3e-6)}}),
+    # a bumper 10-15 deg inside the model's joint limit, on one side
+    "end_stop": ("joint", lambda r: {"end_stop": {("upper" if r.random() < 0.5 else "lower") + "_intrusion_rad":
+                                                  r.uniform(0.17, 0.26)}}),
 }
 
 
