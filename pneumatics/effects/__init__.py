@@ -17,8 +17,10 @@ and the mismatch finder tests the same physics as hypotheses
 | pressure_sensor_offset, angle_sensor_offset | additive sensor offsets | observations | yes (pressure and torque balance) |
 | supply_droop | supply pressure falls with the total supply flow | kernel | yes |
 | end_stop | a bumper inside the joint range: one-sided spring past the stop | MuJoCo soft joint limit | yes (stop on a grid, stiffness fitted) |
-| heat_transfer | finite gas-wall heat exchange (bench chambers) | bench models | bench doctor |
-| backlash, force_sensor_offset | — | not yet | force offset: bench doctor |
+| external_leak (bench) | laminar leak through the pores of a printed chamber (`external_leak.py`) | bench_chamber | bench doctor |
+| heat_transfer | finite gas-wall heat exchange, h A (T_wall - T) (`heat_transfer.py`) | bench_chamber (not arm2 yet) | bench doctor |
+| force_sensor_offset | load-cell offset; seal friction per direction and its growth with pressure (`seal_friction.py`) | bench_cylinder | bench doctor |
+| backlash | — | not yet | not yet |
 """
 
 #: every family name the doctor can report (DESIGN.md; extend, never rename)

@@ -1,0 +1,66 @@
+"""external_leak: a chamber leaking to the room.
+
+Mass flow out of a chamber at absolute pressure ``p`` [Pa] and gas temperature ``T`` [K] into
+the room at ``room_pa``, for three leak paths (all return kg/s, positive out of the chamber,
+negative if the room pressure is higher):
+
+* ``"laminar"`` (default) — a porous wall or a long narrow gap: isothermal viscous flow of an
+  ideal gas through a capillary, the compressible Hagen-Poiseuille law
+  m = pi d^4 / (256 mu L R T) (p^2 - p_room^2) (e.g. White, *Viscous Fluid Flow*, 3rd ed.,
+  §3.3 "compressible flow in a tube"; Beater, *Pneumatic Drives*, 2007, §2.4 for laminar
+  leakage).  Written with the conductance at room pressure ``conductance_kg_s_pa`` = G so
+  that m = G (p^2 - p_room^2) / (2 p_room) = G (p - p_room) (p + p_room) / (2 p_room), which
+  equals the linear law for small differences.  The leaks of 3D-printed chambers run through
+  the pores between layers — many long, thin channels with a Reynolds number far below 1 —
+  so this is the doctor's leak law.  On the two leaky prints of the thesis data the orifice
+  law fits worst; laminar beats linear on one, and on the other linear fits the first 70 %
+  better while laminar predicts the rest better (numbers in docs/real_bench.md).
+* ``"linear"`` — m = G (p - p_room): a linearised conductance (small pressure differences).
+* ``"orifice"`` — a short hole: isentropic orifice flow with choked and subsonic branches
+  (pneumatics.medium.orifice_flow, papers 002 eqs. 6-8), effective area ``area_m2``, with the
+  flow scaled by sqrt(T_gas_cfg / T) for the chamber's actual temperature.
+
+The energy the leaking gas carries away (c_p T per kg) is booked by
+:func:`pneumatics.effects.heat_transfer.chamber_rates`, so mass and energy stay balanced.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..medium import GasCfg, orifice_flow
+
+LAWS = ("laminar", "linear", "orifice")
+
+
+def leak_mass_flow(p, room_pa: float, coefficient, law: str = "laminar", temperature_k=None,
+                   gas: GasCfg | None = None):
+    """Mass flow [kg/s] out of chambers at ``p`` [Pa] (float or (n,)) into the room.
+
+    ``coefficient`` is the conductance G [kg/(s Pa)] for "laminar"/"linear", the effective
+    area Cd*A [m^2] for "orifice".  ``temperature_k`` (gas temperature) only matters for the
+    orifice law; the viscous laws are written for gas at room temperature.
+    """
+    if law == "laminar":
+        return coefficient * (p - room_pa) * (p + room_pa) / (2.0 * room_pa)
+    if law == "linear":
+        return coefficient * (p - room_pa)
+    if law == "orifice":
+        gas = gas or GasCfg()
+        m, _, _ = orifice_flow(coefficient, p, room_pa, gas)
+        if temperature_k is not None:
+            m = m * np.sqrt(gas.temperature_k / np.asarray(temperature_k, float))
+        return m
+    raise ValueError(f"unknown leak law {law!r}; valid: {', '.join(LAWS)}")
+
+
+def isothermal_time_constant_s(volume_m3: float, conductance_kg_s_pa: float, temperature_k: float,
+                               gas_constant: float = 287.0) -> float:
+    """tau [s] of the gauge-pressure decay of an isothermal chamber with a linear leak:
+    V/(R T) dp/dt = -G (p - p_room)  =>  tau = V / (R T G)."""
+    return volume_m3 / (gas_constant * temperature_k * conductance_kg_s_pa)
+
+
+def conductance_from_time_constant(volume_m3: float, tau_s: float, temperature_k: float,
+                                   gas_constant: float = 287.0) -> float:
+    """G [kg/(s Pa)] of a leak whose isothermal decay time constant is tau_s (inverse of the above)."""
+    return volume_m3 / (gas_constant * temperature_k * tau_s)
