@@ -315,7 +315,8 @@ def _mech_attr(param):
     """MechMods attribute of a mechanical hypothesis parameter."""
     return {"coulomb_nm": "coulomb_nm", "breakaway_extra_nm": "stiction_extra_nm",
             "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad",
-            "offset_pa": None, "stiffness_nm_per_rad": "end_stop_nm_per_rad"}[param]
+            "offset_pa": None, "stiffness_nm_per_rad": "end_stop_nm_per_rad",
+            "damping_nm_s_per_rad": "end_stop_nm_s_per_rad"}[param]
 
 
 def h_apply_offset(mods: PneumaticMods, c: int, offset_pa: float, n_ch: int) -> PneumaticMods:

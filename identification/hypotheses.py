@@ -96,11 +96,44 @@ def _penetration(q, stop, side):
     return np.maximum(q - stop, 0.0) if side > 0 else np.minimum(q - stop, 0.0)
 
 
-def end_stop_hypotheses(robot, exp, td, n_grid: int = 16) -> list[Hypothesis]:
-    """An end stop (bumper) inside the model's joint range: a one-sided spring torque
-    -k (q - q_stop) past q_stop.  The equation error then carries +k * penetration (tau_act
-    - tau_inv = -tau_stop); k enters linearly, q_stop is chosen on a grid over the outer 15 % of
-    the angles the training data visited (profile least squares; its stderr from the profile's
+def _two_fold_rss(td, reg):
+    """Residual sum of squares of the torque balance with extra regressors ``reg``, each half of
+    the training samples predicted by a fit to the other half: a stop placed where only a few
+    impacts happen to fit well does not generalise, and this says so before held-out data do."""
+    import dataclasses
+
+    from .mechanics import fit_rigid_body
+
+    n = td.valid.size
+    half = np.arange(n) < n // 2
+    total = 0.0
+    for fit_part in (half, ~half):
+        f = fit_rigid_body(dataclasses.replace(td, valid=td.valid & fit_part), reg, ["k", "b"],
+                           (np.zeros(2), np.full(2, np.inf)))
+        test = td.valid & ~fit_part
+        A = np.concatenate([td.regressors[test], reg[test]], axis=2)
+        res = td.residual[test] - np.einsum("njp,p->nj", A, f.values)
+        total += float(np.sum(res ** 2))
+    return total
+
+
+def _stop_regs(exp, j, stop, side):
+    """(N, J, 2) regressors of a bumper at ``stop``: its spring (penetration) and its damping
+    (velocity while in contact), both entering the equation error with a positive coefficient."""
+    n, J = exp.q_s.shape
+    pen = _penetration(exp.q_s[:, j], stop, side)
+    out = np.zeros((n, J, 2))
+    out[:, j, 0] = pen
+    out[:, j, 1] = np.where(pen != 0, exp.qd[:, j], 0.0)
+    return out
+
+
+def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
+    """An end stop (bumper) inside the model's joint range: a one-sided spring-damper torque
+    -k (q - q_stop) - b qd past q_stop (Hunt & Crossley 1975 without the power law).  The
+    equation error then carries +k * penetration + b * qd in contact (tau_act - tau_inv =
+    -tau_stop); k and b enter linearly, q_stop is chosen on a grid over the outer 15 % of
+    the angles the training data visited, out to its last few samples (profile least squares; its stderr from the profile's
     Delta chi^2 = 1 interval)."""
     from .mechanics import fit_rigid_body
 
@@ -109,21 +142,21 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 16) -> list[Hypothesis]:
     for j, name in enumerate(robot.joint_names):
         qv = exp.q_s[td.valid, j]
         for side in (1, -1):
-            qs = np.quantile(qv, np.linspace(0.85, 0.995, n_grid) if side > 0 else np.linspace(0.15, 0.005, n_grid))
-            rss = []
-            for stop in qs:
-                reg = np.zeros(exp.q_s.shape + (1,))
-                reg[:, j, 0] = _penetration(exp.q_s[:, j], stop, side)
-                rss.append(fit_rigid_body(td, reg, ["k"], (np.zeros(1), np.full(1, np.inf))).rss)
+            # from the 85 % quantile out to the last few samples: a stop the arm touched only
+            # briefly sits beyond all but a handful of them
+            inner, outer = np.quantile(qv, 0.85 if side > 0 else 0.15), np.sort(qv)[-4 if side > 0 else 3]
+            qs = np.linspace(inner, outer, n_grid)
+            rss = np.array([_two_fold_rss(td, _stop_regs(exp, j, stop, side)) for stop in qs])
             rss = np.array(rss)
             k = int(np.argmin(rss))
-            sigma2 = rss[k] / max(base.n - len(base.values) - 2, 1)
+            sigma2 = rss[k] / max(base.n - len(base.values) - 2, 1)  # (unscaled torque units)
             inside = qs[(rss - rss[k]) / sigma2 <= 1.0]
             stderr = max(float(np.ptp(inside)) / 2, float(np.abs(np.diff(qs)).mean()) / 2)
             stop = float(qs[k])
             out.append(Hypothesis(
-                "end_stop", {"joint": name}, "mechanical", [("stiffness_nm_per_rad", 0.0, 0.0, np.inf, 0.0)], joint=j,
-                regressor=_joint_reg(j, lambda e, td_, j=j, stop=stop, side=side: _penetration(e.q_s[:, j], stop, side)),
+                "end_stop", {"joint": name}, "mechanical", [("stiffness_nm_per_rad", 0.0, 0.0, np.inf, 0.0),
+                                                            ("damping_nm_s_per_rad", 0.0, 0.0, np.inf, 0.0)], joint=j,
+                regressor=lambda e, td_, j=j, stop=stop, side=side: _stop_regs(e, j, stop, side),
                 fixed={"stop_rad": {"value": stop, "stderr": stderr}, "side_sign": {"value": float(side), "stderr": 0.0}}))
     return out
 

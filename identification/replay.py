@@ -31,6 +31,7 @@ class MechMods:
     viscous_nm_s: np.ndarray = None
     angle_offset_rad: np.ndarray = None
     end_stop_nm_per_rad: np.ndarray = None             # stiffness of an end stop (end_stop)
+    end_stop_nm_s_per_rad: np.ndarray = None           # its damping while in contact
     end_stops: dict = field(default_factory=dict)      # joint index -> (stop_rad, side +1/-1)
 
     @classmethod
@@ -78,7 +79,8 @@ class MechMods:
         if stops:
             for j, (stop, side) in self.end_stops.items():
                 pen = np.maximum(q[:, j] - stop, 0.0) if side > 0 else np.minimum(q[:, j] - stop, 0.0)
-                tau[:, j] -= self.end_stop_nm_per_rad[j] * pen
+                b = 0.0 if self.end_stop_nm_s_per_rad is None else self.end_stop_nm_s_per_rad[j]
+                tau[:, j] -= np.where(pen != 0, self.end_stop_nm_per_rad[j] * pen + b * qd[:, j], 0.0)
         return tau
 
 

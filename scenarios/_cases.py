@@ -44,10 +44,17 @@ FAMILIES = {
     # the line's resistance and capacitance (Richer & Hurmuzlu 2000)
     "line_dynamics": ("chamber", lambda r: {"line_dynamics": {"delay_s": r.uniform(0.01, 0.03),
                                                               "volume_m3": r.uniform(1e-6, 3e-6)}}),
-    # a bumper 10-15 deg inside the model's joint limit, on one side
+    # a bumper 9-13 deg inside the model's joint limit, on one side
     "end_stop": ("joint", lambda r: {"end_stop": {("upper" if r.random() < 0.5 else "lower") + "_intrusion_rad":
-                                                  r.uniform(0.17, 0.26)}}),
+                                                  r.uniform(0.15, 0.22)}}),
 }
+
+
+#: the families the blind benchmark hides.  end_stop is left out: a bumper the arm touches
+#: only at the far ends of its references either wins the concealment (the arm never reaches
+#: it) or, touched, gives a handful of impact samples that the end-stop hypothesis cannot yet
+#: fit in a way that holds on held-out data (trial cases: 0 of 3 found, no false finding).
+BENCHMARK_FAMILIES = [f for f in FAMILIES if f != "end_stop"]
 
 
 def draw_effect(family: str, rng: np.random.Generator) -> tuple[dict, EffectSet]:
@@ -107,13 +114,28 @@ def perturbed_robot(rng: np.random.Generator, fraction: float):
     return robot, factors
 
 
+#: the hand-moved references keep 5 deg inside the joint limits (controllers/reference.py)
+REFERENCE_MARGIN_RAD = np.radians(5.0)
+
+
+def scale_value(key: str, v: float, k: float) -> float:
+    """One effect parameter with its magnitude scaled by k: Stribeck velocities keep their
+    value; an end stop moves out towards the reference margin (beyond which the arm never goes,
+    so halving the intrusion itself would hide the stop altogether)."""
+    if key == "stribeck_rad_s":
+        return v
+    if key.endswith("_intrusion_rad"):
+        return REFERENCE_MARGIN_RAD + (v - REFERENCE_MARGIN_RAD) * k
+    return v * k
+
+
 def scaled(effects: EffectSet, k: float) -> EffectSet:
     """Every effect magnitude times k (Stribeck velocities and widths unchanged)."""
     out = EffectSet()
     for f in dataclasses.fields(EffectSet):
         v = getattr(effects, f.name)
         if isinstance(v, dict):
-            getattr(out, f.name).update({p: ({kk: (vv * k if kk != "stribeck_rad_s" else vv) for kk, vv in x.items()}
+            getattr(out, f.name).update({p: ({kk: scale_value(kk, vv, k) for kk, vv in x.items()}
                                              if isinstance(x, dict) else x * k) for p, x in v.items()})
     out.supply_droop_pa_per_kg_s = effects.supply_droop_pa_per_kg_s * k
     return out
@@ -156,7 +178,7 @@ def make_case(out: Path, seed: int, families: list[str], *, fraction: float = 0.
         scale *= 0.5
     for t in truths:
         t["scale"] = scale
-        t["parameters"] = _plain({k: ({kk: (vv * scale if kk != "stribeck_rad_s" else vv) for kk, vv in v.items()}
+        t["parameters"] = _plain({k: ({kk: scale_value(kk, vv, scale) for kk, vv in v.items()}
                                       if isinstance(v, dict) else v * scale) for k, v in t["parameters"].items()})
     paths = {}
     for part, rec in recs.items():
