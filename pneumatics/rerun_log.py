@@ -62,6 +62,7 @@ import time as _time
 import uuid
 import warnings
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -118,6 +119,19 @@ _TIME_FIELD = pa.field(TIMELINE, pa.duration("ns"), metadata={"rerun:index_name"
 
 def _vec_array(x: np.ndarray, n: int) -> pa.Array:
     return pa.FixedSizeListArray.from_arrays(pa.array(np.ascontiguousarray(x, np.float32).ravel()), n)
+
+
+@dataclass
+class RerunRobot:
+    """What :class:`RerunLogger` reads of a robot — for models that are not built by
+    :func:`pneumatics.robot.load_robot` (jet-pipe, hydraulic) but have an MJCF and recordings."""
+
+    name: str
+    model: mujoco.MjModel
+    joint_names: list
+    qpos_index: np.ndarray
+    actuator_names: list
+    chamber_names: list  # [(actuator, "a" | "b"), ...]
 
 
 class RerunLogger:

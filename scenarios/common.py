@@ -101,8 +101,10 @@ def run_scenario(name: str, out: str | Path | None = None, fast: bool = False,
     atomic_write_json(out / "metrics.json", metrics)
     if not quiet:
         print(f"{name}: wrote {out / 'metrics.json'}" + "".join(f", {p.name}" for p in ctx.written))
-        if ctx.rerun_path:
+        if ctx.rerun_path and ctx.rerun_path.exists():
             print(f"{name}: Rerun recording {ctx.rerun_path}")
+        elif ctx.rerun_path:
+            print(f"{name}: this scenario logs nothing to Rerun (its results are the PNGs and metrics)")
         print(json.dumps(metrics, indent=1))
     return metrics
 

@@ -109,15 +109,20 @@ def run(ctx):
     axes[0].set_title("Fig. 18: 5 Hz, k_p = 20, 1 kHz")
 
     # Fig. 15: servo rate at 7 Hz, k_p = 20
+    logger = ctx.rerun_logger(sim.rerun_robot(), "jetpipe force control, 7 Hz")
     for rate in (70.0, 500.0):
         rec, ctl, err = tracking(sim, curve, 20.0, 7.0, 5.0, rate_hz=rate, duration=0.6 if ctx.fast else 1.5)
         metrics[f"max_err_n_{rate:.0f}hz"] = err
         ctx.save_recording(rec, f"tracking_7hz_servo_{rate:.0f}hz.csv")
+        if logger is not None:  # one Rerun recording, one prefix per servo rate
+            logger.log_recording(rec, prefix=f"servo_{rate:.0f}hz", bodies=True)
         metrics[f"saturated_share_{rate:.0f}hz"] = ctl.saturation_fraction
         axes[1].plot(rec.time, rec["force.piston"] - rec["force_ref.piston"], label=f"servo {rate:.0f} Hz: max {err:.2f} N")
         if not ctx.fast:  # the same without the one-sample computation delay
             _, _, err0 = tracking(sim, curve, 20.0, 7.0, 5.0, rate_hz=rate, duration=1.5, delay=0)
             metrics[f"max_err_n_{rate:.0f}hz_no_delay"] = err0
+    if logger is not None:
+        logger.close()
     axes[1].set_title("Fig. 15: tracking error at 7 Hz, k_p = 20")
     for a in axes:
         a.set_xlabel("time [s]")

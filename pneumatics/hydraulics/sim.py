@@ -169,25 +169,15 @@ class HydraulicJointSim:
     def warnings(self) -> list[int]:
         return [int(w.number) for w in self.data.warning]
 
-    def rerun_robot(self) -> RerunRobot:
+    def rerun_robot(self):
         """What :class:`pneumatics.rerun_log.RerunLogger` reads of a robot, for this joint
         (log recordings with ``logger.log_recording(rec, prefix="", bodies=True)``)."""
+        from ..rerun_log import RerunRobot
+
         names = [VANE_JOINT, SHAFT_JOINT]
         return RerunRobot("sarcos_elbow", self.model, names,
                           np.array([self.model.jnt_qposadr[self.model.joint(j).id] for j in names]),
                           [ACTUATOR], [(ACTUATOR, "a"), (ACTUATOR, "b")])
-
-
-@dataclass
-class RerunRobot:
-    """The attributes of :class:`pneumatics.robot.Robot` that the Rerun logger uses."""
-
-    name: str
-    model: mujoco.MjModel
-    joint_names: list[str]
-    qpos_index: np.ndarray
-    actuator_names: list[str]
-    chamber_names: list[tuple[str, str]]
 
 
 def load_hydraulic(name: str = "sarcos_elbow", timestep: float | None = None,

@@ -219,6 +219,15 @@ class JetpipeSim:
                 "stopper_position_m": self.cfg.cylinder.stopper_position_m}
         return Recording(t[:row], {k: v[:row] for k, v in cols.items()}, meta, f"<{self.jm.name} run>")
 
+    def rerun_robot(self):
+        """What :class:`pneumatics.rerun_log.RerunLogger` reads of a robot, for this actuator
+        (log runs with ``logger.log_recording(rec, prefix="", bodies=True)``)."""
+        from ..rerun_log import RerunRobot
+
+        return RerunRobot(self.jm.name, self.model, ["piston"],
+                          np.array([self.model.jnt_qposadr[self.model.joint("piston").id]]),
+                          ["piston"], [("piston", "a"), ("piston", "b")])
+
     def with_cfg(self, **sections) -> JetpipeSim:
         """A new simulation with config sections replaced, e.g. ``cylinder={"stopper_position_m": .07}``."""
         cfg = self.cfg
