@@ -16,6 +16,7 @@ step over bare time per step (1.0 = the fluid layer is free).
 from __future__ import annotations
 
 import json
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -121,6 +122,65 @@ def bench_doctor(quick: bool) -> dict:
             "named": ",".join(f["effect"] for f in report["findings"]) or "nothing"}
 
 
+def _noop_case(case: dict) -> dict:
+    """A case that costs nothing: what is left is the sweep's own cost per case."""
+    return {"i": case["i"]}
+
+
+def bench_sweep(quick: bool) -> dict:
+    """Cases per second of :func:`pneumatics.sweep.sweep` on 1 and 2 local workers and on Ray
+    (local, 2 CPUs), each case a closed-loop arm2 run (``arm2_domain_sweep.track``, 10 s
+    simulated, nominal parameters).  Workers are warmed first (imports, numba compilation:
+    paid once per worker process, reported as ``worker_warmup_s``); then the three set-ups
+    are timed ``repeats`` times, interleaved, best kept.  Other processes load this machine;
+    the 1-minute load average is recorded beside the numbers."""
+    from pneumatics.sweep import _cpu_count, connect_ray, sweep
+    from scenarios.arm2_domain_sweep import track
+
+    try:
+        import ray
+    except ImportError:  # pragma: no cover
+        ray = None
+    n, repeats = (8, 2) if quick else (16, 3)
+    cases = [{"supply_pa": 7e5, "area_scale": 1.0, "seconds": 10.0, "seed": 100 + i} for i in range(n)]
+    noop = [{"i": i} for i in range(200)]
+    out = {"cases": n, "case_simulated_s": 10.0, "cpus": _cpu_count(), "load_average_1min": os.getloadavg()[0]}
+    t0 = time.perf_counter()
+    sweep(track, cases[:2], workers=2, progress=False)  # warm both workers
+    out["worker_warmup_s"] = time.perf_counter() - t0
+    setups = {"1": {"workers": 1}, "2": {"workers": 2}}
+    started = False
+    if ray is not None:
+        started = not ray.is_initialized()
+        t0 = time.perf_counter()
+        connect_ray(None, 2)
+        out["ray_start_s"] = time.perf_counter() - t0
+        sweep(track, cases[:4], backend="ray", workers=2, progress=False)  # warm Ray's workers
+        setups["ray"] = {"backend": "ray", "workers": 2}
+    best = dict.fromkeys(setups, np.inf)
+    for _ in range(repeats):
+        for key, opts in setups.items():
+            t0 = time.perf_counter()
+            sweep(track, cases, progress=False, **opts)
+            best[key] = min(best[key], time.perf_counter() - t0)
+    out["cases_per_s_1_worker"] = n / best["1"]
+    out["cases_per_s_2_workers"] = n / best["2"]
+    out["speedup_2_workers"] = best["1"] / best["2"]
+    for key, opts in setups.items():
+        if key != "1":
+            t0 = time.perf_counter()
+            sweep(_noop_case, noop, progress=False, **opts)
+            out[f"{'ray' if key == 'ray' else 'process'}_overhead_ms_per_case"] = \
+                1e3 * (time.perf_counter() - t0) / len(noop)
+    if ray is not None:
+        out["ray_cases_per_s_2_workers"] = n / best["ray"]
+        out["ray_overhead"] = best["ray"] / best["2"] - 1.0  # Ray local time over process-pool time, minus 1
+        if started:
+            ray.shutdown()
+    out["load_average_1min_end"] = os.getloadavg()[0]
+    return out
+
+
 def run_bench(quick: bool = False, out: str | Path = "runs/bench") -> dict:
     steps = 20_000 if quick else 100_000
     results = {}
@@ -130,6 +190,7 @@ def run_bench(quick: bool = False, out: str | Path = "runs/bench") -> dict:
         n = steps if name == "arm2" else steps // 4
         results[name] = bench_model(name, n, repeats=3)
     results["doctor"] = bench_doctor(quick)
+    results["sweep"] = bench_sweep(quick)
     _print_table(results)
     path = Path(out) / "bench.json"
     atomic_write_json(path, results)
@@ -155,6 +216,15 @@ def _print_table(results: dict):
         d = results["doctor"]
         print(f"doctor: {d['recording_seconds']:.0f} s + {d['heldout_seconds']:.0f} s held out of arm2 at 100 Hz "
               f"diagnosed in {d['seconds']:.0f} s (named: {d['named']})")
+    if "sweep" in results:
+        s = results["sweep"]
+        print(f"sweep: {s['cases']} arm2 runs of {s['case_simulated_s']:.0f} s: {s['cases_per_s_1_worker']:.2f} cases/s "
+              f"on 1 worker, {s['cases_per_s_2_workers']:.2f} on 2 ({s['speedup_2_workers']:.2f}x, {s['cpus']} CPUs, "
+              f"load average {s['load_average_1min']:.1f}); worker warm-up {s['worker_warmup_s']:.0f} s")
+        if "ray_overhead" in s:
+            print(f"sweep on Ray (local, 2 CPUs): {s['ray_cases_per_s_2_workers']:.2f} cases/s, "
+                  f"{s['ray_overhead']:+.0%} vs the process pool; {s['ray_overhead_ms_per_case']:.1f} ms/case "
+                  f"overhead (process pool {s['process_overhead_ms_per_case']:.1f}); Ray start {s['ray_start_s']:.0f} s")
 
 
 if __name__ == "__main__":

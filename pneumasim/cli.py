@@ -25,6 +25,10 @@ def _cmd_bench(args):
 
 
 def _cmd_doctor(args):
+    import models
+
+    if args.model in models.available("bench"):  # bench rigs: identification/bench_doctor.py
+        return _cmd_bench_doctor(args)
     from rich.console import Console
 
     from identification.doctor import diagnose
@@ -41,6 +45,71 @@ def _cmd_doctor(args):
     write(report, args.out, robot)
     print(summary(report))
     print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
+
+
+def _cmd_bench_doctor(args):
+    from identification.bench_doctor import diagnose_bench
+    from identification.bench_report import summary, write
+    from pneumatics.recording import read_csv
+
+    recs = [read_csv(p) for p in args.recordings]
+    holds = [read_csv(p) for p in (args.holdout or [])]
+    report = diagnose_bench(args.model, recs, holds)
+    write(report, args.out)
+    print(summary(report))
+    print(f"report: {args.out}/report.md, {args.out}/report.json")
+
+
+def _cmd_import(args):
+    from pneumatics.importer import import_to_csv
+
+    meta = {}
+    for item in args.meta or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise PneumasimError(f"--meta {item!r}: expected KEY=VALUE")
+        try:
+            meta[key] = float(value)
+        except ValueError:
+            meta[key] = value
+    rec = import_to_csv(args.src, args.map, args.out, meta)
+    print(f"import: {args.src} -> {args.out} ({len(rec)} rows, {rec.time[-1] - rec.time[0]:.1f} s; "
+          f"columns {', '.join(rec.columns)})")
+
+
+def _cmd_sweep(args):
+    import json
+    import os
+    import time
+
+    from pneumatics.io import atomic_write_json
+    from pneumatics.sweep import load_function, read_cases, sweep
+
+    if ":" not in args.target:  # a scenario: its sweeps take the options from the environment
+        from scenarios.common import run_scenario
+
+        for key, value in (("PNEUMASIM_WORKERS", args.workers), ("PNEUMASIM_RAY", args.ray),
+                           ("PNEUMASIM_BACKEND", args.backend)):
+            if value is not None:
+                os.environ[key] = str(value)
+        run_scenario(args.target, args.out, args.fast)
+        return
+    if not args.cases or not args.out:
+        raise PneumasimError("sweep MODULE:FUNCTION needs --cases CASES.json and --out DIR")
+    fn, cases = load_function(args.target), read_cases(args.cases)
+    t0 = time.perf_counter()
+    results = sweep(fn, cases, out=args.out, backend=args.backend or ("ray" if args.ray else "process"),
+                    workers=args.workers, ray_address=None if args.ray in (None, "local") else args.ray,
+                    retries=args.retries, progress=not args.no_progress)
+    rows = [{"index": r.index, "case": r.case, "result": r.result, "error": r.error, "seconds": r.seconds,
+             "attempts": r.attempts, "resumed": r.resumed} for r in results]
+    path = os.path.join(args.out, "results.json")
+    atomic_write_json(path, rows)
+    failed = [r.index for r in results if not r.ok]
+    print(json.dumps({"cases": len(results), "failed": len(failed), "resumed": sum(r.resumed for r in results),
+                      "wall_seconds": round(time.perf_counter() - t0, 2), "results": path}))
+    if failed:
+        sys.exit(f"pneumasim: {len(failed)} case(s) failed: {failed[:20]} (errors in {path})")
 
 
 def _cmd_models(args):
@@ -70,6 +139,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--holdout", nargs="+", metavar="REC.csv", help="held-out recordings (default: last 30 %%)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=_cmd_doctor)
+    p = sub.add_parser("import", help="convert a lab log into a recording CSV with a mapping file")
+    p.add_argument("src", metavar="SRC", help="the lab's raw log")
+    p.add_argument("--map", required=True, metavar="MAP.toml",
+                   help="mapping file, or the name of a shipped one (zillen_chamber, zillen_friction)")
+    p.add_argument("--out", required=True, metavar="REC.csv", help="recording to write (and REC.json)")
+    p.add_argument("--meta", nargs="+", metavar="KEY=VALUE", help="extra sidecar metadata, e.g. bore_m=0.0257")
+    p.set_defaults(func=_cmd_import)
+    p = sub.add_parser("sweep", help="run a case function over many cases, or a scenario, on every core or on Ray",
+                       description="pneumasim sweep MODULE:FUNCTION --cases CASES.json --out DIR, or "
+                                   "pneumasim sweep SCENARIO [--fast] [--out DIR]; a rerun with the same "
+                                   "--out resumes (docs/sweep.md)")
+    p.add_argument("target", metavar="MODULE:FUNCTION|SCENARIO",
+                   help="a case function fn(case: dict) -> dict, or a scenario name (pneumasim run --list)")
+    p.add_argument("--cases", metavar="CASES.json", help="a JSON list of case objects (or JSON lines)")
+    p.add_argument("--out", help="output folder: cases/<i>.json, sweep.json, results.json")
+    p.add_argument("--workers", type=int, help="parallel cases (default: every CPU)")
+    p.add_argument("--ray", metavar="auto|ADDRESS|local",
+                   help="run on Ray: 'auto' (the cluster `ray start` made), HOST:PORT, or 'local' (start it here)")
+    p.add_argument("--backend", choices=["inline", "process", "ray"], help="default: process (ray with --ray)")
+    p.add_argument("--retries", type=int, default=1, help="extra attempts for a failed case (default 1)")
+    p.add_argument("--fast", action="store_true", help="scenario: the shortened version")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_sweep)
     p = sub.add_parser("models", help="list the models")
     p.set_defaults(func=_cmd_models)
     return parser
