@@ -9,7 +9,12 @@ Per joint i, with the tracking error q*_i - q_i::
 where d_i = p_i^+ - p_i^- is the measured pressure difference (in bar, so k_F is in V/bar)
 and 5 V stands for each valve's own null.  The robot measures angles only: the derivative
 term differentiates the measured error through a first-order low-pass filter.  The integral
-is clamped (anti-windup).  Commands leave the controller clipped to 0-10 V.
+is clamped so that its contribution never exceeds ``integral_limit_v`` (anti-windup).
+Commands leave the controller clipped to 0-10 V.
+
+In PIDF the effort e_i is a desired pressure difference e_i / k_F [bar] and the k_F loop a
+low-level pressure controller; :mod:`controllers.model_based` adds the inverse-dynamics
+prediction to it (eqs. 16-17) and :mod:`controllers.ilqg` replaces the k_F loop by MPC.
 """
 from __future__ import annotations
 
@@ -18,7 +23,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pneumatics.config import spec
+from pneumatics.errors import ConfigError
 from pneumatics.sim import Observation
+
+BAR = 1e5
+COMMAND_MIN_V, COMMAND_MAX_V = 0.0, 10.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -33,15 +42,47 @@ class PIDFCfg:
     deriv_filter_s: float = spec(0.02, "time constant of the derivative's low-pass filter", "s")
     rate_hz: float = spec(100.0, "control rate", "Hz")
 
-    def build(self, reference, null_v) -> "PIDF":
+    def __post_init__(self):
+        for name in ("kp_v_per_rad", "kd_v_s_per_rad", "ki_v_per_rad_s", "kf_v_per_bar"):
+            v = np.asarray(getattr(self, name), float)
+            if not np.all(np.isfinite(v)):
+                raise ConfigError(f"PIDFCfg.{name}: gains must be finite, got {getattr(self, name)}")
+        if self.deriv_filter_s < 0 or self.rate_hz <= 0 or self.integral_limit_v < 0:
+            raise ConfigError("PIDFCfg: deriv_filter_s and integral_limit_v must be >= 0 and rate_hz > 0")
+
+    def build(self, reference, null_v) -> PIDF:
         """A controller tracking ``reference`` (an object with ``reference(t) -> (n_joint,)``),
         around the valves' nulls ``null_v`` (n_ch,)."""
         return PIDF(self, reference, np.asarray(null_v, float))
+
+    def as_vector(self, n_joint: int) -> np.ndarray:
+        """(4, n_joint) rows kp, kd, ki, kf."""
+        return np.array([np.broadcast_to(np.asarray(getattr(self, k), float), (n_joint,))
+                         for k in ("kp_v_per_rad", "kd_v_s_per_rad", "ki_v_per_rad_s", "kf_v_per_bar")])
 
 
 #: arm2 gains of reference/arm2.md (shoulder, elbow): tracks a varied 60 s reference at ~2-3 deg
 ARM2_PIDF = PIDFCfg(kp_v_per_rad=(40.0, 50.0), kd_v_s_per_rad=(1.5, 2.5), ki_v_per_rad_s=(10.0, 10.0),
                     kf_v_per_bar=(4.0, 3.0))
+
+#: arm2 plain PID (eq. 14), found by controllers.tuning (Nelder-Mead, 3 restarts x 60
+#: evaluations on a 10 s hand-moved reference, seed 3).  Every gain set tried limit-cycles and
+#: hits the joint limits; these have the lowest error (the optimiser all but switched the
+#: elbow's proportional term off in favour of the integral and derivative terms)
+ARM2_PID = PIDFCfg(kp_v_per_rad=(6.7, 0.05), kd_v_s_per_rad=(1.9, 3.9), ki_v_per_rad_s=(28.0, 28.0),
+                   kf_v_per_bar=(0.0, 0.0))
+
+
+def valve_commands(null_v: np.ndarray, effort_v: np.ndarray) -> np.ndarray:
+    """Antagonistic mapping of eqs. 14/15/17: u^+ = null + v, u^- = null - v, clipped to 0-10 V.
+
+    Args: null_v (n_ch,) each valve's null; effort_v (n_joint,) with n_ch = 2 n_joint.
+    Returns: (n_ch,) commands ordered a0, b0, a1, b1, ...
+    """
+    u = np.empty(2 * effort_v.size)
+    u[0::2] = null_v[0::2] + effort_v
+    u[1::2] = null_v[1::2] - effort_v
+    return np.clip(u, COMMAND_MIN_V, COMMAND_MAX_V)
 
 
 @dataclass
@@ -63,7 +104,8 @@ class PIDF:
     def reference(self, t: float) -> np.ndarray:
         return self.ref.reference(t)
 
-    def __call__(self, t: float, obs: Observation) -> np.ndarray:
+    def effort(self, t: float, obs: Observation) -> np.ndarray:
+        """(n_joint,) PID effort e_i of eq. 13 [V]; advances the filter and integral states."""
         c = self.cfg
         dt = 1.0 / c.rate_hz
         err = self.reference(t) - obs.q
@@ -79,11 +121,13 @@ class PIDF:
         self._integral += err * dt
         lim = c.integral_limit_v / np.maximum(ki, 1e-12)
         np.clip(self._integral, -lim, lim, out=self._integral)
-        e = (np.asarray(c.kp_v_per_rad) * err + np.asarray(c.kd_v_s_per_rad) * self._deriv
-             + ki * self._integral)
-        d_bar = (obs.p_a - obs.p_b) / 1e5
-        e = e - np.asarray(c.kf_v_per_bar) * d_bar
-        u = np.empty(2 * e.size)
-        u[0::2] = self.null_v[0::2] + e
-        u[1::2] = self.null_v[1::2] - e
-        return np.clip(u, 0.0, 10.0)
+        return (np.asarray(c.kp_v_per_rad) * err + np.asarray(c.kd_v_s_per_rad) * self._deriv
+                + ki * self._integral)
+
+    def kf(self, n_joint: int) -> np.ndarray:
+        return np.broadcast_to(np.asarray(self.cfg.kf_v_per_bar, float), (n_joint,))
+
+    def __call__(self, t: float, obs: Observation) -> np.ndarray:
+        e = self.effort(t, obs)
+        d_bar = (obs.p_a - obs.p_b) / BAR
+        return valve_commands(self.null_v, e - self.kf(e.size) * d_bar)
