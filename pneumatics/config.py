@@ -15,6 +15,20 @@ from typing import Any
 
 from .errors import ConfigError
 
+
+def read_toml(path, what: str = "fluid-power file") -> dict:
+    """A TOML file as a dict; a missing file or bad TOML is a ConfigError naming the file."""
+    import tomllib
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: {what} not found") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{path}: not valid TOML: {e}") from None
+
 _REQUIRED = dataclasses.MISSING
 
 

@@ -29,12 +29,12 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from .config import read_toml
 from .errors import ConfigError, RecordingError
 from .recording import Recording
 
@@ -119,10 +119,7 @@ def load_map(path_or_name: str | Path) -> ImportMap:
             path = shipped[str(path_or_name)]
         else:
             raise ConfigError(f"{path}: mapping file not found (shipped maps: {', '.join(shipped)})")
-    try:
-        doc = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path}: not valid TOML: {e}") from None
+    doc = read_toml(path, "mapping file")
     where = str(path)
     unknown = set(doc) - {"source", "meta", "column"}
     if unknown:

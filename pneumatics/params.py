@@ -13,12 +13,11 @@ File layout (every field documented in the dataclasses below)::
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from .actuator import ActuatorCfg
-from .config import from_table, spec
+from .config import from_table, read_toml, spec
 from .errors import ConfigError
 from .medium import GasCfg
 from .valve import ValveCfg
@@ -125,11 +124,4 @@ def parse_fluid(doc: dict, where: str) -> FluidCfg:
 
 def load_fluid(path: str | Path) -> FluidCfg:
     """Read and validate a fluid-power TOML file."""
-    path = Path(path)
-    try:
-        doc = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: fluid-power file not found") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path}: not valid TOML: {e}") from None
-    return parse_fluid(doc, str(path))
+    return parse_fluid(read_toml(path), str(path))

@@ -16,11 +16,10 @@ The mechanical parameters (inertias, shaft stiffness, friction, gravity) are in 
 """
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..config import from_table, spec
+from ..config import from_table, read_toml, spec
 from ..errors import ConfigError
 from ..oil import OilCfg
 from .hysteresis import HysteresisCfg
@@ -78,11 +77,4 @@ def parse_hydraulic(doc: dict, where: str) -> HydraulicCfg:
 
 def load_hydraulic_cfg(path: str | Path) -> HydraulicCfg:
     """Read and validate a hydraulic ``fluid.toml``."""
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{path}: no such file")
-    try:
-        doc = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path}: not valid TOML: {e}") from None
-    return parse_hydraulic(doc, str(path))
+    return parse_hydraulic(read_toml(path), str(path))

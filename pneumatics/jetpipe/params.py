@@ -16,11 +16,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..config import from_table, spec
+from ..config import from_table, read_toml, spec
 from ..errors import ConfigError
 from ..medium import GasCfg
 from ..params import ControlCfg, _gas
@@ -142,11 +141,4 @@ def parse_jetpipe(doc: dict, where: str) -> JetpipeCfg:
 
 def load_jetpipe_cfg(path: str | Path) -> JetpipeCfg:
     """Read and validate a jet-pipe fluid.toml."""
-    path = Path(path)
-    try:
-        doc = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: fluid-power file not found") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path}: not valid TOML: {e}") from None
-    return parse_jetpipe(doc, str(path))
+    return parse_jetpipe(read_toml(path), str(path))
