@@ -96,7 +96,7 @@ def test_static_volume_pressure_stays_between_room_and_supply(u, p0, vol):
     assert np.all(p >= PR - 1e-6) and np.all(p <= PS + 1e-6)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=30, deadline=None)
 @given(st.lists(st.floats(0.0, 10.0), min_size=8, max_size=8),
        st.lists(st.floats(-2e-3, 2e-3), min_size=8, max_size=8),
        st.floats(0.2e5, 12e5))
@@ -113,15 +113,17 @@ def test_random_commands_and_motions_keep_pressures_positive_and_finite(us, vrat
         assert np.all(np.isfinite(p)) and np.all(p > 0)
 
 
-@pytest.mark.parametrize("u", [0.0, 4.5, 5.0, 5.5, 10.0])
-def test_static_volume_converges_to_the_same_asymptote_from_both_sides(u):
+def test_static_volume_converges_to_the_same_asymptote_from_both_sides():
+    """From room and from supply pressure, at each command (one vectorised run of 10 chambers)."""
+    commands = [0.0, 4.5, 5.0, 5.5, 10.0]
     row = np.array([[5, 5, 0.02, 0.6, 0.15, 1.3, 6e-7, 7e-7]])
-    _, p = static_transient(row, 1e-5, [PR, PS], [u, u], 25.0, 1e-3, GAS, PS, PR)
-    lo, hi = p[:, 0], p[:, 1]
-    assert np.all(np.diff(lo) >= -1e-6) and np.all(np.diff(hi) <= 1e-6)  # monotone approach
-    assert abs(lo[-1] - hi[-1]) < 50.0
-    rate, _ = pressure_rate(lo[-1:], np.array([1e-5]), np.zeros(1), *valve_areas(np.array([u]), row), GAS, PS, PR)
-    assert abs(rate[0]) < 10.0  # Pa/s: at rest
+    _, p = static_transient(row, 1e-5, [PR] * 5 + [PS] * 5, commands * 2, 25.0, 1e-3, GAS, PS, PR)
+    for k, u in enumerate(commands):
+        lo, hi = p[:, k], p[:, 5 + k]
+        assert np.all(np.diff(lo) >= -1e-6) and np.all(np.diff(hi) <= 1e-6), u  # monotone approach
+        assert abs(lo[-1] - hi[-1]) < 50.0, u
+        rate, _ = pressure_rate(lo[-1:], np.array([1e-5]), np.zeros(1), *valve_areas(np.array([u]), row), GAS, PS, PR)
+        assert abs(rate[0]) < 10.0, u  # Pa/s: at rest
 
 
 @pytest.mark.parametrize("u,p0", [(10.0, PR), (0.0, PS), (5.0, PR), (6.0, 3e5), (4.2, 6e5)])

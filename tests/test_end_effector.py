@@ -124,7 +124,6 @@ def test_hold_reference_is_exposed(humanoid):
     assert np.allclose(Hold(np.ones(3)).reference(1.0), 1.0)
 
 
-@pytest.mark.slow
 def test_reach_fast_scenario(tmp_path):
     m = run_scenario("humanoid38_reach", tmp_path, fast=True, quiet=True)
     assert m["reach_err_final_mm"] < 15.0 and m["reach_err_mean_mm"] < 30.0  # measured 5.5, 9.8
@@ -132,7 +131,6 @@ def test_reach_fast_scenario(tmp_path):
     assert (tmp_path / "reach.png").stat().st_size > 10_000
 
 
-@pytest.mark.slow
 def test_tracking_fast_scenario(tmp_path):
     m = run_scenario("humanoid38_tracking", tmp_path, fast=True, quiet=True)
     assert m["median_err_pct_range"] < 4.0 and 0 <= m["lag_ms"] <= 150     # measured 2.3 %, 30 ms

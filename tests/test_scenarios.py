@@ -84,8 +84,10 @@ def test_unknown_scenario_is_one_clear_line():
     assert "Traceback" not in r.stderr
 
 
-def test_doctor_blind_benchmark_fast(out):
-    """Three fresh cases (null, Coulomb friction, valve hysteresis), 30 s + 15 s each."""
+def test_doctor_blind_benchmark_fast(out, monkeypatch):
+    """Three fresh cases (null, Coulomb friction, valve hysteresis), 30 s + 15 s each; in this
+    process (inline), which has compiled the simulation loop already (a worker would again)."""
+    monkeypatch.setenv("PNEUMASIM_BACKEND", "inline")
     m = run("doctor_blind_benchmark", out)
     assert m["cases"] == 3
     assert m["null_false_discovery_rate"] == 0.0

@@ -178,7 +178,6 @@ def test_cli_maps_a_module_function_and_resumes(tmp_path, capsys):
         main(argv)
 
 
-@pytest.mark.slow
 def test_domain_sweep_fast_tracks_worse_with_less_air(tmp_path, monkeypatch):
     """arm2_domain_sweep --fast (inline: the pytest process's compiled kernel is reused): less
     supply pressure or smaller valves mean less flow to the chambers and worse tracking.

@@ -123,7 +123,6 @@ def test_repeatability_scenario(tmp_path):
     assert (tmp_path / "arm2_repeatability" / "repeatability.png").stat().st_size > 10_000
 
 
-@pytest.mark.slow
 def test_inverse_dynamics_scenario(tmp_path):
     m = _run("arm2_inverse_dynamics", tmp_path)
     assert m["r2_heldout"] > 0.87  # paper: 0.87 on the real robot
@@ -131,7 +130,6 @@ def test_inverse_dynamics_scenario(tmp_path):
     assert m["n_datasets"] == 9
 
 
-@pytest.mark.slow
 def test_tracking_scenario(tmp_path):
     m = _run("arm2_tracking", tmp_path)
     for c in CONTROLLERS:
