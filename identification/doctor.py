@@ -133,8 +133,13 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     kept_mech = []
     for rnd in range(MAX_ROUNDS):
         _say(progress, f"scoring mechanical hypotheses (round {rnd + 1})")
+        # one pressure-sensor offset per cylinder: where the pressure replays found one, the
+        # torque data are already corrected by it, and a second offset from the torque balance
+        # would only take up what the replays' fit left over
+        offset_acts = {f.where["actuator"] for f in findings if f.family == "pressure_sensor_offset"}
         hyps = [h for h in (mechanical_hypotheses(robot, exp, td) if END_STOP_HYPOTHESES else mechanical_hypotheses(robot))
-                if h.label not in tried]
+                if h.label not in tried
+                and not (h.family == "pressure_sensor_offset" and h.where["actuator"] in offset_acts)]
         scored, base = score_mechanical(td, exp, hyps, base_extra)
         base_h = torque_rms(td_h, base, None if base_extra is None else _regs(kept_mech, held, td_h))
         for s in scored:
