@@ -91,7 +91,7 @@ def _joint_regs(j, fns):
     return reg
 
 
-def _penetration(q, stop, side):
+def penetration(q, stop, side):
     """How far q is past an end stop at ``stop`` [rad] on ``side`` (+1 upper, -1 lower); 0 before it."""
     return np.maximum(q - stop, 0.0) if side > 0 else np.minimum(q - stop, 0.0)
 
@@ -121,7 +121,7 @@ def _stop_regs(exp, j, stop, side):
     """(N, J, 2) regressors of a bumper at ``stop``: its spring (penetration) and its damping
     (velocity while in contact), both entering the equation error with a positive coefficient."""
     n, J = exp.q_s.shape
-    pen = _penetration(exp.q_s[:, j], stop, side)
+    pen = penetration(exp.q_s[:, j], stop, side)
     out = np.zeros((n, J, 2))
     out[:, j, 0] = pen
     out[:, j, 1] = np.where(pen != 0, exp.qd[:, j], 0.0)

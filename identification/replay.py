@@ -16,6 +16,7 @@ from pneumatics.chamber import actuator_force
 from pneumatics.effects.friction import friction_torque
 
 from .data import FINE_DT, Experiment
+from .hypotheses import penetration
 from .pneumatic import ChamberModel, PneumaticMods, Windows, effective_commands, initial_pressure
 
 
@@ -78,7 +79,7 @@ class MechMods:
                               0.1, z + (0 if self.viscous_nm_s is None else self.viscous_nm_s))
         if stops:
             for j, (stop, side) in self.end_stops.items():
-                pen = np.maximum(q[:, j] - stop, 0.0) if side > 0 else np.minimum(q[:, j] - stop, 0.0)
+                pen = penetration(q[:, j], stop, side)
                 b = 0.0 if self.end_stop_nm_s_per_rad is None else self.end_stop_nm_s_per_rad[j]
                 tau[:, j] -= np.where(pen != 0, self.end_stop_nm_per_rad[j] * pen + b * qd[:, j], 0.0)
         return tau

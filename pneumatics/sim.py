@@ -88,6 +88,9 @@ class Simulation:
         self._lag = self.effects.chamber_array(robot, "valve_lag_s")
         # valve_lag / line_dynamics move the spool between commands: step one physics step at a time
         self._valve_dynamics = bool(np.any(self._lag > 0) or np.any(self._line_delay > 0))
+        # exact first-order decay over half a physics step (0 where the valve has no lag)
+        self._lag_decay_half = np.where(self._lag > 0, np.exp(-0.5 * self.model.opt.timestep
+                                                              / np.maximum(self._lag, 1e-300)), 0.0)
         self._valve_leak = self.effects.chamber_array(robot, "valve_leak_m2")
         self._hysteresis = self.effects.chamber_array(robot, "valve_hysteresis_v")
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
@@ -194,10 +197,8 @@ class Simulation:
             due = t_set + self._line_delay <= t + 1e-9
             target[due] = u[due]
         x = self.spool_position
-        with np.errstate(divide="ignore"):
-            decay_half = np.where(self._lag > 0, np.exp(-0.5 * dt / np.maximum(self._lag, 1e-300)), 0.0)
-        mid = target + (x - target) * decay_half
-        x[:] = target + (x - target) * decay_half ** 2
+        mid = target + (x - target) * self._lag_decay_half
+        x[:] = target + (x - target) * self._lag_decay_half ** 2
         self._update_areas(mid)
 
     def _update_areas(self, spool=None):
