@@ -43,10 +43,16 @@ def chamber_names(robot) -> list[str]:
             + [f"dead_volume_scale.{n}" for n in names])
 
 
+#: upper bound of a dead-volume scale when the hypothesis under test is a line (tube) whose
+#: volume adds to the chamber's: up to 3x (arm2: 3-4 cm^3 chambers, tubes of 1-8 cm^3)
+LINE_VOLUME_BOUND = 3.0
+
+
 def fit_chambers(exp, win: Windows, mods: PneumaticMods | None = None, sigma: float | None = None,
-                 extra=None):
+                 extra=None, wide_dead_volume=()):
     """Fit per-chamber area and dead-volume scales; ``extra`` = (names, x0, lo, hi, apply,
-    sparsity_rows) adds effect parameters fitted jointly.  Returns (mods, Fit)."""
+    sparsity_rows) adds effect parameters fitted jointly; the chambers ``wide_dead_volume`` may
+    grow their dead volume up to LINE_VOLUME_BOUND (a tube's volume).  Returns (mods, Fit)."""
     C = exp.robot.tables.n_chambers
     mods = mods or PneumaticMods.nominal(C)
     sigma = sigma or pressure_sigma(exp)
@@ -55,6 +61,10 @@ def fit_chambers(exp, win: Windows, mods: PneumaticMods | None = None, sigma: fl
     x0 = chamber_params(mods)
     lo = np.full(x0.size, -np.log(SCALE_BOUND))
     hi = np.full(x0.size, np.log(SCALE_BOUND))
+    # a line found earlier keeps its widened dead volume in later fits
+    wide = set(wide_dead_volume) | {c for c in range(C) if x0[2 * C + c] > np.log(SCALE_BOUND)}
+    for c in wide:
+        hi[2 * C + c] = np.log(LINE_VOLUME_BOUND)
     n_base = x0.size
     # residual layout (W, H, C): chamber c's residuals depend on its own three scales
     sparsity = lil_matrix((W * H * C, n_base + (len(extra[1]) if extra else 0)), dtype=int)

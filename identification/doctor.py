@@ -29,7 +29,14 @@ from .mechanics import fit_rigid_body, torque_data
 from .pneumatic import PneumaticMods, Windows, replay
 from .regimes import chamber_regimes, joint_regimes, ljung_box, locate_regime, windows
 from .replay import MechMods, coupled_replay
-from .screening import Scored, chamber_rms, fit_pneumatic, score_mechanical, score_pneumatic, torque_rms
+from .screening import (
+    Scored,
+    chamber_rms,
+    fit_pneumatic,
+    score_mechanical,
+    score_pneumatic,
+    torque_rms,
+)
 
 HORIZON = 30               # samples per pressure-replay window (0.3 s at 100 Hz)
 MIN_PREDICTED = 0.02       # score-test gain worth a full fit
@@ -318,6 +325,11 @@ def _params(s: Scored) -> dict:
     k = len(names)
     out = {n: {"value": float(v), "stderr": float(e)} for n, v, e in zip(names, s.fit.values[-k:], s.fit.stderr[-k:])}
     out.update(s.hyp.fixed)
+    if s.hyp.adds_volume:  # the tube's volume: how much the chamber's dead volume grew past the model's
+        w = s.hyp.where
+        i = s.fit.names.index(f"dead_volume_scale.{w['actuator']}.{w['chamber']}")
+        scale, v_nominal = float(np.exp(s.fit.values[i])), s.hyp.adds_volume
+        out["volume_m3"] = {"value": max(scale - 1.0, 0.0) * v_nominal, "stderr": scale * float(s.fit.stderr[i]) * v_nominal}
     return out
 
 
@@ -357,7 +369,7 @@ def _offset_place(finding: Finding, scored: list) -> Finding:
 def _without(mods: PneumaticMods, f: Finding) -> PneumaticMods:
     """The final chamber model without finding f's effect (its parameter set to the null value)."""
     h = f.scored.hyp
-    return h.apply(mods, np.array([0.0]))
+    return h.apply(mods, np.array([h.null_value]))
 
 
 def mods_without_all(mods, findings):

@@ -9,10 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable
 
+import mujoco
 import numpy as np
 
 from pneumatics.effects.friction import coulomb_shape, stribeck_shape
-
 
 
 @dataclass
@@ -26,6 +26,8 @@ class Hypothesis:
     apply: Callable | None = None           # (mods, x) -> mods
     regressor: Callable | None = None       # (exp, td) -> (N, J, E)
     fixed: dict = field(default_factory=dict)  # parameters chosen before the linear fit: name -> {value, stderr}
+    null_value: float = 0.0       # the parameter value that switches the effect off (apply(mods, [null]))
+    adds_volume: float = 0.0      # a tube's volume adds to this nominal dead volume [m^3]: it may grow past the calibration bound
 
     @property
     def label(self) -> str:
@@ -41,6 +43,21 @@ def _set(field_name, c, n, value_transform=lambda v: v):
         arr[c] = value_transform(x[0])
         return mods.copy(**{field_name: arr})
     return apply
+
+
+def _heat(c, n):
+    """heat_transfer at chamber c: that chamber switches to the energy equation with h A = x[0]."""
+    def apply(mods, x):
+        arr = np.full(n, np.nan) if mods.heat_w_k is None else mods.heat_w_k.copy()
+        arr[c] = x[0]
+        return mods.copy(heat_w_k=arr)
+    return apply
+
+
+#: gas-wall conductance h A [W/K] the heat_transfer hypothesis starts from and its upper bound:
+#: arm2's chambers (walls of 20-50 cm^2, h = 10-100 W/(m^2 K) with the flow's forced convection,
+#: Carneiro & de Almeida 2006) have 0.02-0.5 W/K; 2 W/K is close to isothermal at 1 ms.
+HEAT_PROBE_W_K, HEAT_MAX_W_K = 0.1, 2.0
 
 
 def pneumatic_hypotheses(robot) -> list[Hypothesis]:
@@ -59,13 +76,24 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
             Hypothesis("valve_lag", where, "pneumatic", [("time_constant_s", 0.0, 0.0, 0.15, 0.004)], [c],
                        apply=_set("lag_s", c, C)),
             Hypothesis("line_dynamics", where, "pneumatic", [("delay_s", 0.0, 0.0, 0.15, 0.004)], [c],
+                       adds_volume=float(robot.tables.dead_volume[c]),
                        apply=_set("delay_s", c, C)),
             Hypothesis("pressure_sensor_offset", where, "pneumatic", [("offset_pa", 0.0, -5e4, 5e4, 2000.0)], [c],
                        apply=_set("sensor_offset_pa", c, C)),
+            Hypothesis("heat_transfer", where, "pneumatic",
+                       [("conductance_w_k", 0.0, 0.0, HEAT_MAX_W_K, HEAT_PROBE_W_K)], [c], apply=_heat(c, C),
+                       null_value=np.nan),
         ]
     for j, a in enumerate(robot.actuator_names):
         out.append(Hypothesis("piston_leak", {"actuator": a}, "pneumatic", [("leak_area_m2", 0.0, 0.0, 4e-7, 1e-8)],
                               [2 * j, 2 * j + 1], apply=_set("piston_leak_m2", j, n_act)))
+    joint_driven = robot.model.actuator_trntype[robot.actuator_ids] == int(mujoco.mjtTrn.mjTRN_JOINT)
+    for j, a in enumerate(robot.actuator_names):
+        if joint_driven[j]:  # the play shifts the piston by gear x gap / 2 (pneumatic.drive_side_lengths)
+            joint = robot.model.joint(int(robot.model.actuator_trnid[robot.actuator_ids[j], 0])).name
+            out.append(Hypothesis("backlash", {"joint": joint}, "pneumatic", [("gap_rad", 0.0, 0.0, 0.1, 0.005)],
+                                  [2 * j, 2 * j + 1], joint=robot.joint_names.index(joint),
+                                  apply=_set("backlash_rad", j, n_act)))
     out.append(Hypothesis("supply_droop", {"supply": "all"}, "pneumatic",
                           [("droop_pa_per_kg_s", 0.0, 0.0, 5e8, 5e6)], list(range(C)),
                           apply=lambda mods, x: mods.copy(supply_droop_pa_per_kg_s=float(x[0]))))

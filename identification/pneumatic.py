@@ -15,11 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from pneumatics.chamber import GAMMA
+from pneumatics.effects.heat_transfer import thermal_step
 from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play
 from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
 
 from .data import FINE_DT, Experiment
+from .thermal import gas_temperatures
 
 
 @dataclass
@@ -39,6 +41,8 @@ class PneumaticMods:
     extra_volume_m3: np.ndarray = None        # line volume added to the dead volume
     sensor_offset_pa: np.ndarray = None       # measured = true + offset
     supply_droop_pa_per_kg_s: float = 0.0     # supply pressure drop per kg/s of total supply flow
+    heat_w_k: np.ndarray = None               # gas-wall conductance h A [W/K]; NaN = eq. 9 (heat_transfer)
+    backlash_rad: np.ndarray = None           # (n_act,) play between cylinder and link [rad] (backlash)
 
     @classmethod
     def nominal(cls, n_ch: int) -> "PneumaticMods":
@@ -108,6 +112,9 @@ class ChamberModel:
             self.dead = self.dead + mods.extra_volume_m3
         self.rows = np.repeat(tab.valve[None], batch, 0).reshape(-1, 8)
         self.m_supply_total = np.zeros((batch, 1))
+        # heat_transfer: these chambers carry a gas temperature T (W, C) [K]; set T before stepping
+        self.thermal = np.array([], int) if mods.heat_w_k is None else np.nonzero(np.isfinite(mods.heat_w_k))[0]
+        self.T = np.full((batch, tab.n_chambers), self.gas.temperature_k)
 
     def travel(self, length):
         """Chamber travel (W, C) from actuator lengths (W, n_act)."""
@@ -161,9 +168,54 @@ class ChamberModel:
         bad = ~np.isfinite(p_new) | (p_new <= 0)
         if bad.any():
             p_new = np.where(bad, p, p_new)
+        if self.thermal.size:
+            p_new = self._thermal_step(p, p_new, a_s, a_e, vol, vdot, ps)
         if droop:
             self.m_supply_total = np.maximum(m_s, 0).sum(axis=1, keepdims=True)
         return p_new
+
+    def _thermal_step(self, p, p_new, a_s, a_e, vol, vdot, ps):
+        """The heat_transfer chambers by the energy equation (pneumatics.effects.heat_transfer)."""
+        cs, mods, tab = self.thermal, self.mods, self.tab
+        extra = np.zeros_like(p)
+        if mods.external_leak_m2 is not None:
+            extra -= orifice_flow(mods.external_leak_m2, p, tab.room_pa, self.gas)[0]
+        if mods.piston_leak_m2 is not None:
+            m_ab = orifice_flow(mods.piston_leak_m2, p[:, 0::2], p[:, 1::2], self.gas)[0]
+            extra[:, 0::2] -= m_ab
+            extra[:, 1::2] += m_ab
+        p_th, t_th = thermal_step(p[:, cs], self.T[:, cs], vol[:, cs], vdot[:, cs], a_s[:, cs], a_e[:, cs],
+                                  self.gas, ps, tab.room_pa, mods.heat_w_k[cs], self.gas.temperature_k,
+                                  FINE_DT, extra[:, cs])
+        p_new = p_new.copy()
+        p_new[:, cs] = p_th
+        self.T[:, cs] = t_th
+        return p_new
+
+
+#: the cylinder force [N], as a fraction of its largest (bore area x supply gauge), over which the
+#: piston crosses the play when the force reverses (a smooth sign: the crossing takes a few ms)
+BACKLASH_FORCE_FRACTION = 0.01
+
+
+def drive_side_lengths(exp: Experiment, mods: PneumaticMods) -> np.ndarray:
+    """(F, n_act) actuator lengths on the 1 ms grid seen by the chambers.
+
+    With backlash the piston is not where the link angle puts it: it leads the link by half the
+    play on the side it pushes, q_drive = q + gap/2 sign(F) (Nordin & Gutman 2002, dead zone in
+    contact), F the cylinder force from the measured pressures; joint transmissions only
+    (length = gear q)."""
+    if mods.backlash_rad is None or not np.any(mods.backlash_rad > 0):
+        return exp.fine_length
+    robot, tab = exp.robot, exp.robot.tables
+    p = np.column_stack([np.interp(exp.fine_t, exp.t, exp.p_at_t[:, c]) for c in range(tab.n_chambers)])
+    if mods.sensor_offset_pa is not None:
+        p = p - mods.sensor_offset_pa
+    from pneumatics.chamber import actuator_force
+    force = actuator_force(tab, p)
+    width = BACKLASH_FORCE_FRACTION * tab.area_a * (tab.supply_pa - tab.room_pa)
+    gear = robot.model.actuator_gear[robot.actuator_ids, 0]
+    return exp.fine_length + gear * 0.5 * mods.backlash_rad * np.tanh(force / width)
 
 
 def initial_pressure(exp: Experiment, k0, mods: PneumaticMods):
@@ -183,9 +235,11 @@ def replay(exp: Experiment, win: Windows, mods: PneumaticMods):
     C = exp.robot.tables.n_chambers
     model = ChamberModel(exp.robot, mods, W)
     u_f = effective_commands(exp, mods)
-    travel = model.travel(exp.fine_length)            # (F, C)
+    travel = model.travel(drive_side_lengths(exp, mods))  # (F, C)
     k0 = win.starts
     p = initial_pressure(exp, k0, mods)
+    if model.thermal.size:
+        model.T = gas_temperatures(exp, mods, u_f)[k0 * S]
     out = np.zeros((W, H, C))
     acc = np.zeros((W, C))
     f0 = k0 * S

@@ -13,11 +13,19 @@ import mujoco
 import numpy as np
 
 from pneumatics.chamber import actuator_force
+from pneumatics.effects.backlash import addresses, backlash_model, set_drive_state
 from pneumatics.effects.friction import friction_torque
 
 from .data import FINE_DT, Experiment
 from .hypotheses import penetration
-from .pneumatic import ChamberModel, PneumaticMods, Windows, effective_commands, initial_pressure
+from .pneumatic import (
+    ChamberModel,
+    PneumaticMods,
+    Windows,
+    effective_commands,
+    initial_pressure,
+)
+from .thermal import gas_temperatures
 
 
 @dataclass
@@ -103,25 +111,38 @@ class ReplayResult:
 
 def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horizon_s: float = 1.0) -> ReplayResult:
     robot = exp.robot
-    model = mmods.model(robot.model)
+    gaps = {} if pmods.backlash_rad is None else {
+        robot.model.joint(int(robot.model.actuator_trnid[robot.actuator_ids[j], 0])).name: float(g)
+        for j, g in enumerate(pmods.backlash_rad) if g > 0}
+    # backlash: MuJoCo carries the play (pneumatics.effects.backlash); the chambers follow the drive
+    model = mmods.model(backlash_model(robot, gaps) if gaps else robot.model)
     S = exp.n_sub
     H = int(round(horizon_s * exp.rate_hz))
     starts = Windows.tile(len(exp.t), H, breaks=exp.breaks).starts
     W = starts.size
     J = len(robot.joint_names)
-    qadr, dadr, ids = robot.qpos_index, robot.dof_index, robot.actuator_ids
+    qadr, dadr = addresses(model, robot.joint_names)
+    ids = robot.actuator_ids
     datas = [mujoco.MjData(model) for _ in range(W)]
     fq = exp.fine_q
     offset = mmods.angle_offset_rad if mmods.angle_offset_rad is not None else np.zeros(J)
-    for w, k0 in enumerate(starts):
-        f = k0 * S
-        d = datas[w]
-        d.qpos[qadr] = fq[f] - offset
-        d.qvel[dadr] = (fq[f + 1] - fq[f - 1]) / (2 * FINE_DT)
+    q0 = fq[starts * S] - offset
+    qd0 = (fq[starts * S + 1] - fq[starts * S - 1]) / (2 * FINE_DT)
+    p = initial_pressure(exp, starts, pmods)
+    sign = np.zeros((W, J))
+    if gaps:  # each drive starts in contact on the side its cylinder pushes
+        torque_sign = np.sign(robot.model.actuator_gear[ids, 0] * actuator_force(robot.tables, p))  # (W, n_act)
+        for j, g in enumerate(pmods.backlash_rad):
+            if g > 0:
+                joint = robot.model.joint(int(robot.model.actuator_trnid[ids[j], 0])).name
+                sign[:, robot.joint_names.index(joint)] = torque_sign[:, j]
+    set_drive_state(model, datas, q0, qd0, sign, robot.joint_names)
+    for d in datas:
         mujoco.mj_forward(model, d)
     chambers = ChamberModel(robot, pmods, W)
     u_f = effective_commands(exp, pmods)
-    p = initial_pressure(exp, starts, pmods)
+    if chambers.thermal.size:
+        chambers.T = gas_temperatures(exp, pmods, u_f)[starts * S]
     lengths = np.array([d.actuator_length[ids] for d in datas])
     travel0 = chambers.travel(lengths)
     tab = robot.tables

@@ -64,13 +64,21 @@ def score_pneumatic(exp, win, mods, hyps, sigma):
 
 
 def fit_pneumatic(s: Scored, exp, win, mods, sigma):
+    """Fit hypothesis s jointly with the chamber calibration.  Its parameters are fitted in
+    units of their probe steps (a leak area of 1e-8 m^2 and a delay of 0.01 s both become O(1)),
+    so the finite-difference Jacobian's relative steps mean the same for every parameter."""
     h = s.hyp
     names = [p[0] for p in h.params]
-    x0 = np.array([p[1] + p[4] for p in h.params])
-    lo = np.array([p[2] for p in h.params])
-    hi = np.array([p[3] for p in h.params])
-    extra = (names, x0, lo, hi, h.apply, [h.chambers])
-    new_mods, fit = fit_chambers(exp, win, mods, sigma, extra=extra)
+    unit = np.array([p[4] for p in h.params])
+    x0 = np.array([p[1] + p[4] for p in h.params]) / unit
+    lo = np.array([p[2] for p in h.params]) / unit
+    hi = np.array([p[3] for p in h.params]) / unit
+    extra = (names, x0, lo, hi, lambda m, z: h.apply(m, z * unit), [h.chambers])
+    wide = h.chambers if h.adds_volume else ()
+    new_mods, fit = fit_chambers(exp, win, mods, sigma, extra=extra, wide_dead_volume=wide)
+    k = len(names)
+    fit.values[-k:] *= unit
+    fit.stderr[-k:] *= unit
     s.fit, s.mods = fit, new_mods
     return s
 

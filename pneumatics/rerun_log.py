@@ -192,7 +192,8 @@ class RerunLogger:
         self._moving = np.array([b for b in range(1, m.nbody) if weld[b] != 0], int)
         self._fixed = np.array([b for b in range(1, m.nbody) if weld[b] == 0], int)
         jt = [int(m.jnt_type[m.joint(j).id]) for j in robot.joint_names]
-        self._qadr = robot.qpos_index
+        # by name: a simulation may add joints of its own (backlash drives)
+        self._qadr = np.array([m.jnt_qposadr[m.joint(j).id] for j in robot.joint_names], int)
         self._qscale = np.array([180.0 / math.pi if t == _HINGE else 1.0 for t in jt])
         acts = robot.actuator_names
         chambers = robot.chamber_names
@@ -315,6 +316,10 @@ class RerunLogger:
         if i == 0:  # buffer empty: start of a batch (cheap checks live here)
             if self._closed:
                 raise RuntimeError("RerunLogger is closed")
+            m = getattr(sim, "model", self.model)
+            if self._first and (m.nq, m.nbody) != (self.model.nq, self.model.nbody):
+                self.model = m  # the simulation built a model of its own (effect backlash)
+                self._setup_layout()
             if not self._static_done:
                 self.log_static()
             if self._first:

@@ -23,13 +23,21 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from .chamber import actuator_force, fluid_step_areas, supply_pressure_after
-from .tables import valve_areas_table
+from .chamber import (
+    actuator_force,
+    chamber_geometry,
+    fluid_step_areas,
+    leak_flows,
+    supply_pressure_after,
+)
+from .effects.backlash import addresses, backlash_model, drive_pairs
 from .effects.effect_set import EffectSet
 from .effects.friction import friction_torque
+from .effects.heat_transfer import thermal_step
 from .errors import PneumasimError
 from .kernel import fluid_step_fast, pack, run_steps_compiled
 from .robot import Robot
+from .tables import valve_areas_table
 
 COMMAND_RANGE_V = (0.0, 10.0)
 
@@ -74,8 +82,10 @@ class Simulation:
         self.robot = robot
         self.effects = effects or EffectSet()
         self.model = robot.model
+        if self.effects.backlash:  # a drive hinge per joint with play: a model of its own
+            self.model = backlash_model(robot, self.effects.backlash)
         if self.effects.end_stop:  # end stops narrow the joint limits of this simulation's own copy
-            self.model = copy.copy(robot.model)
+            self.model = copy.copy(self.model)
             self.effects.apply_end_stops(robot, self.model)
         self.data = mujoco.MjData(self.model)
         self.kernel = kernel
@@ -95,7 +105,10 @@ class Simulation:
         self._hysteresis = self.effects.chamber_array(robot, "valve_hysteresis_v")
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
         self._q_offset = self.effects.joint_array(robot, "angle_offset_rad")
-        self._fric = self.effects.friction_table(robot)
+        self._fric = self.effects.friction_table(robot, self.model)
+        # heat_transfer: those chambers carry a gas temperature [K] and step in Python
+        self._thermal, self._conductance = self.effects.heat_arrays(robot)
+        self.gas_temperature = np.full(robot.tables.n_chambers, robot.tables.gas.temperature_k)
         self.spool = np.zeros(self.tables.n_chambers)  # command the spool follows (hysteresis)
         self.spool_position = np.zeros(self.tables.n_chambers)  # the spool after lag and line delay
         n_ch = self.tables.n_chambers
@@ -105,8 +118,9 @@ class Simulation:
         self._ids = robot.actuator_ids
         self._prev_length = np.zeros(self._ids.size)
         self._packed = pack(self.tables, self._ids, self.model.opt.timestep)
-        self._qadr = robot.qpos_index
-        self._dadr = robot.dof_index
+        # the link joints' addresses in this simulation's model (backlash adds drive joints)
+        self._qadr, self._dadr = addresses(self.model, robot.joint_names)
+        self._drive = drive_pairs(self.model, robot.joint_names)  # (k, gap, qpos adr, dof adr)
         self._clip_warned = False
         self.sums = np.zeros(n_ch + self.model.nq + self.model.nv)
         self._n_summed = 0
@@ -124,7 +138,10 @@ class Simulation:
                 pass
         if qpos is not None:
             self.data.qpos[self._qadr] = qpos
+            k, _, drive_qadr, _ = self._drive
+            self.data.qpos[drive_qadr] = self.data.qpos[self._qadr[k]]  # backlash: drive at the link
         self.pressure[:] = self.tables.room_pa if pressure_pa is None else pressure_pa
+        self.gas_temperature[:] = self.tables.gas.temperature_k
         self.command[:] = self.tables.valve[:, 0]
         self.spool[:] = self.command
         self.spool_position[:] = self.command
@@ -225,7 +242,7 @@ class Simulation:
     def _physics_steps(self, n: int):
         m, d = self.model, self.data
         self._n_summed += n
-        if self.kernel == "fast" and run_steps_compiled is not None:
+        if self.kernel == "fast" and run_steps_compiled is not None and not self._thermal.any():
             act, ch, glob = self._packed
             run_steps_compiled(n, m._address, d._address, self.pressure, self.areas, self._prev_length,
                                d.actuator_length, d.ctrl, act, ch, glob, d.qpos, d.qvel, self.sums,
@@ -259,7 +276,9 @@ class Simulation:
 
     def _fluid_update(self):
         length = self.data.actuator_length[self._ids]
-        if self.kernel == "fast":
+        if self._thermal.any():
+            self._thermal_update(length)
+        elif self.kernel == "fast":
             act, ch, glob = self._packed
             fluid_step_fast(self.pressure, self.areas, self._prev_length, self.data.actuator_length,
                             self.data.ctrl, act, ch, glob)
@@ -268,6 +287,29 @@ class Simulation:
                                                 self._prev_length, length, self.dt, self._packed[2][13])
             self._packed[2][13] = supply_pressure_after(self.tables, self.pressure, self.areas[:, 0])
             self._prev_length[:] = length
+
+    def _thermal_update(self, length):
+        """The reference fluid step (eq. 9) for every chamber, then the energy equation with the
+        gas temperature (effects.heat_transfer.thermal_step) for the heat_transfer chambers."""
+        tab, th = self.tables, self._thermal
+        supply = self._packed[2][13]
+        p_old, prev = self.pressure.copy(), self._prev_length.copy()
+        if self.kernel == "fast":  # eq. 9 for all chambers, supply droop, lengths (compiled)
+            act, ch, glob = self._packed
+            fluid_step_fast(self.pressure, self.areas, self._prev_length, self.data.actuator_length,
+                            self.data.ctrl, act, ch, glob)
+        else:
+            self.pressure[:] = fluid_step_areas(tab, p_old, self.areas[:, 0], self.areas[:, 1], prev, length,
+                                                self.dt, supply)
+            self._packed[2][13] = supply_pressure_after(tab, p_old, self.areas[:, 0])
+            self._prev_length[:] = length
+        volume, volume_rate = chamber_geometry(tab, prev, length, self.dt)
+        extra = leak_flows(tab, p_old)
+        p_th, t_th = thermal_step(p_old[th], self.gas_temperature[th], volume[th], volume_rate[th],
+                                  self.areas[th, 0], self.areas[th, 1], tab.gas, supply, tab.room_pa,
+                                  self._conductance[th], tab.gas.temperature_k, self.dt, extra[th])
+        self.pressure[th], self.gas_temperature[th] = p_th, t_th
+        self.data.ctrl[self._ids] = actuator_force(tab, self.pressure)
 
     def _accumulate(self):
         n_ch, nq = self.pressure.size, self.model.nq

@@ -44,6 +44,12 @@ FAMILIES = {
     # the line's resistance and capacitance (Richer & Hurmuzlu 2000)
     "line_dynamics": ("chamber", lambda r: {"line_dynamics": {"delay_s": r.uniform(0.01, 0.03),
                                                               "volume_m3": r.uniform(1e-6, 3e-6)}}),
+    # the gas exchanging heat with the cylinder wall: h A = 0.05-0.3 W/K (walls of 20-50 cm^2,
+    # h = 20-100 W/(m^2 K) with the flow's forced convection; Carneiro & de Almeida 2006), a
+    # thermal time constant of 0.1-1 s at working pressures
+    "heat_transfer": ("chamber", lambda r: {"heat_transfer": {"conductance_w_k": r.uniform(0.05, 0.3)}}),
+    # a play of 0.3-1 deg between cylinder and link (worn clevis pins and rod-end bearings)
+    "backlash": ("joint", lambda r: {"backlash": {"gap_rad": r.uniform(0.006, 0.018)}}),
     # a bumper 9-13 deg inside the model's joint limit, on one side
     "end_stop": ("joint", lambda r: {"end_stop": {("upper" if r.random() < 0.5 else "lower") + "_intrusion_rad":
                                                   r.uniform(0.15, 0.22)}}),

@@ -16,11 +16,11 @@ and the mismatch finder tests the same physics as hypotheses
 | line_dynamics | tube between valve and chamber: transport delay + its volume | spool delay, dead volume | yes (delay) |
 | pressure_sensor_offset, angle_sensor_offset | additive sensor offsets | observations | yes (pressure and torque balance) |
 | supply_droop | supply pressure falls with the total supply flow | kernel | yes |
-| end_stop | a bumper inside the joint range: one-sided spring past the stop | MuJoCo soft joint limit | yes (stop on a grid, stiffness fitted) |
+| end_stop | a bumper inside the joint range: one-sided spring past the stop | MuJoCo soft joint limit | off by default (`doctor.END_STOP_HYPOTHESES`) |
 | external_leak (bench) | laminar leak through the pores of a printed chamber (`external_leak.py`) | bench_chamber | bench doctor |
-| heat_transfer | finite gas-wall heat exchange, h A (T_wall - T) (`heat_transfer.py`) | bench_chamber (not arm2 yet) | bench doctor |
+| heat_transfer | gas temperature as a state, energy equation with h A (T_wall - T) (`heat_transfer.py`, R&H 2000 eq. 11) | per chamber, stepped in Python (~1 ms/step) | yes (T observed from the measured pressures, `identification/thermal.py`); bench doctor |
 | force_sensor_offset | load-cell offset; seal friction per direction and its growth with pressure (`seal_friction.py`) | bench_cylinder | bench doctor |
-| backlash | — | not yet | not yet |
+| backlash | play between cylinder and link, dead zone (`backlash.py`, Nordin & Gutman 2002) | drive hinge + limited fixed tendon in MuJoCo | yes (the piston leads the link by gap/2 on the side it pushes) |
 """
 
 #: every family name the doctor can report (DESIGN.md; extend, never rename)

@@ -42,10 +42,19 @@ class EffectSet:
     line_dynamics: dict = field(default_factory=dict)
     """chamber -> {"delay_s": transport delay of the tube between valve and chamber [s],
     "volume_m3": the tube's volume, added to the chamber's dead volume [m^3]} (line_dynamics)"""
+    heat_transfer: dict = field(default_factory=dict)
+    """chamber -> {"conductance_w_k": h A_w between gas and wall [W/K]} (heat_transfer): the chamber
+    carries its gas temperature and follows the energy equation (effects/heat_transfer.thermal_step,
+    Richer & Hurmuzlu 2000 eq. 11) instead of paper 002 eq. 9; the wall is at the gas table's
+    temperature_k.  Such a simulation steps in Python (about 10x slower)."""
     end_stop: dict = field(default_factory=dict)
     """joint -> {"upper_intrusion_rad" or "lower_intrusion_rad": how far inside the model's joint
     limit a rubber bumper stops the joint [rad]} (end_stop); MuJoCo's own soft joint limit, with
     the bumper's time constant END_STOP_TIMECONST_S"""
+    backlash: dict = field(default_factory=dict)
+    """joint -> {"gap_rad": total play between cylinder and link [rad]} (backlash); the cylinder
+    drives a hinge of its own, coupled to the link through MuJoCo's tendon limit
+    (:func:`pneumatics.effects.backlash.backlash_model`)"""
 
     def _array(self, attr: str, kind: str, names: list) -> np.ndarray:
         """(len(names),) values of the per-place effect ``attr``; 0 where it is off."""
@@ -76,6 +85,17 @@ class EffectSet:
             volume[names.index(key)] = v.get("volume_m3", 0.0)
         return delay, volume
 
+    def heat_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
+        """(thermal mask (n_ch,) bool, conductance [W/K] (n_ch,)) of the heat_transfer effects."""
+        names = [f"{a}.{c}" for a, c in robot.chamber_names]
+        mask, hA = np.zeros(len(names), bool), np.zeros(len(names))
+        for key, v in self.heat_transfer.items():
+            if key not in names:
+                raise UnknownNameError("chamber", key, names)
+            mask[names.index(key)] = True
+            hA[names.index(key)] = v.get("conductance_w_k", 0.0)
+        return mask, hA
+
     def apply_end_stops(self, robot, model):
         """Narrow the joint limits of ``model`` (a copy of the robot's) to the end stops."""
         for joint, v in self.end_stop.items():
@@ -89,13 +109,15 @@ class EffectSet:
             model.jnt_range[jid] = (lo + v.get("lower_intrusion_rad", 0.0), hi - v.get("upper_intrusion_rad", 0.0))
             model.jnt_solref[jid] = (END_STOP_TIMECONST_S, 1.0)
 
-    def friction_table(self, robot) -> np.ndarray:
-        """(n_f, 5): dof address, Coulomb, extra breakaway, Stribeck velocity, viscous."""
+    def friction_table(self, robot, model=None) -> np.ndarray:
+        """(n_f, 5): dof address (in ``model``, default the robot's), Coulomb, extra breakaway,
+        Stribeck velocity, viscous."""
+        model = robot.model if model is None else model
         rows = []
         for joint, f in self.friction.items():
             if joint not in robot.joint_names:
                 raise UnknownNameError("joint", joint, robot.joint_names)
-            dof = robot.dof_index[robot.joint_names.index(joint)]
+            dof = model.jnt_dofadr[model.joint(joint).id]
             rows.append([dof, f.get("coulomb_nm", 0.0), f.get("stiction_extra_nm", 0.0),
                          f.get("stribeck_rad_s", 0.1), f.get("viscous_nm_s", 0.0)])
         return np.array(rows, float).reshape(-1, 5)
@@ -104,4 +126,5 @@ class EffectSet:
     def empty(self) -> bool:
         return not any((self.friction, self.valve_leak_m2, self.external_leak_m2, self.piston_leak_m2,
                         self.valve_hysteresis_v, self.pressure_offset_pa, self.angle_offset_rad,
-                        self.supply_droop_pa_per_kg_s, self.valve_lag_s, self.line_dynamics, self.end_stop))
+                        self.supply_droop_pa_per_kg_s, self.valve_lag_s, self.line_dynamics, self.end_stop,
+                        self.heat_transfer, self.backlash))

@@ -103,3 +103,73 @@ def integrate(t, p0, T0, rates, substeps: int = 1):
                 return P, Ts
         P[i + 1], Ts[i + 1] = p, T
     return P, Ts
+
+
+# -- the robots' chambers: the energy equation with valve flows --------------------------------
+#
+# A robot chamber with heat_transfer on carries its gas temperature T [K] as a state and obeys
+# Richer & Hurmuzlu (2000) eq. 11 instead of paper 002 eq. 9.  Eq. 9 is what this equation
+# gives if T stayed at the supply temperature in every flow term (adiabatic compression, but air
+# leaving at the temperature it came in with); with T a state the exhaust carries the gas's own
+# enthalpy, an orifice passes less mass of hotter gas (mass flow ~ p_up / sqrt(T_up), ISO 6358),
+# and the wall exchange h A (T_w - T) relaxes T with tau = m c_v / (h A).
+
+
+def chamber_flows(p, T, a_supply, a_exhaust, gas, supply_pa, room_pa, t_ref_k, extra_flow=0.0):
+    """Flows into chambers at (p, T): (mdot [kg/s], sum of T_j mdot_j [K kg/s], its d/dp).
+
+    Arrays broadcast.  Air entering (from the supply or the room, or a leak inflow) comes at the
+    reference temperature ``t_ref_k``; air leaving is the chamber's, at T, its mass flow scaled
+    by sqrt(t_ref / T) (the orifice law's 1/sqrt(T_up)).  ``extra_flow`` [kg/s] (leaks, signed
+    into the chamber) is held over the step."""
+    from ..medium import orifice_flow
+    m_s, _, dms = orifice_flow(a_supply, supply_pa, p, gas)      # supply -> chamber
+    m_e, dme, _ = orifice_flow(a_exhaust, p, room_pa, gas)       # chamber -> room
+    scale = np.sqrt(t_ref_k / T)
+    flows = [(m_s, dms), (-m_e, -dme), (extra_flow, 0.0)]
+    mdot = 0.0
+    enthalpy = 0.0
+    d_enthalpy = 0.0
+    for m, dm in flows:
+        out = m < 0
+        m_eff = np.where(out, m * scale, m)
+        dm_eff = np.where(out, dm * scale, dm)
+        t_j = np.where(out, T, t_ref_k)
+        mdot = mdot + m_eff
+        enthalpy = enthalpy + t_j * m_eff
+        d_enthalpy = d_enthalpy + t_j * dm_eff
+    return mdot, enthalpy, d_enthalpy
+
+
+def thermal_step(p, T, volume, volume_rate, a_supply, a_exhaust, gas, supply_pa, room_pa, conductance_w_k,
+                 wall_k, dt, extra_flow=0.0):
+    """Advance chambers with a gas temperature over one step ``dt`` [s]: arrays broadcasting
+    together ((n,) or (W, C)); returns (p [Pa abs], T [K]) at t + dt.
+
+    ``volume`` is the mid-step volume [m^3] and ``volume_rate`` [m^3/s] is held over the step,
+    as in :func:`pneumatics.chamber.chamber_geometry`.  The pressure follows R&H eq. 11 by ROS2
+    (pneumatics.chamber's scheme: exact scalar Jacobian in p, T held over the step); the
+    temperature then follows from the mass balance, T = p V / (R m) with
+    m+ = m + dt mdot(p at mid-step), so the air in a closed chamber is conserved exactly.
+    The heat term is explicit in T: keep tau = m c_v / (h A) well above dt (>= 20 dt)."""
+    from ..chamber import GAMMA
+    k, R = gas.heat_capacity_ratio, gas.gas_constant_j_per_kg_k
+    t_ref = gas.temperature_k
+    heat = (k - 1.0) * conductance_w_k * (wall_k - T)
+
+    def rhs(q):
+        _, h_in, dh = chamber_flows(q, T, a_supply, a_exhaust, gas, supply_pa, room_pa, t_ref, extra_flow)
+        return (k * R * h_in - k * q * volume_rate + heat) / volume, (k * R * dh - k * volume_rate) / volume
+
+    f0, jac = rhs(p)
+    denom = 1.0 - GAMMA * dt * jac
+    k1 = f0 / denom
+    f1, _ = rhs(p + dt * k1)
+    k2 = (f1 - 2.0 * k1) / denom
+    p_new = p + 1.5 * dt * k1 + 0.5 * dt * k2
+    mdot, _, _ = chamber_flows(0.5 * (p + p_new), T, a_supply, a_exhaust, gas, supply_pa, room_pa, t_ref, extra_flow)
+    v0 = volume - 0.5 * dt * volume_rate
+    v1 = volume + 0.5 * dt * volume_rate
+    m0 = p * v0 / (R * T)
+    m1 = np.maximum(m0 + dt * mdot, 1e-3 * m0)
+    return p_new, p_new * v1 / (R * m1)

@@ -30,7 +30,7 @@ def first_order_lag(u: np.ndarray, tau_s: float, dt: float) -> np.ndarray:
     a = np.exp(-dt / tau_s)
     from scipy.signal import lfilter
 
-    y = lfilter([1 - a], [1, -a], u, axis=0, zi=(a * u[:1]) if u.ndim == 1 else (a * u[:1]))[0]
+    y = lfilter([1 - a], [1, -a], u, axis=0, zi=a * u[:1])[0]
     return y
 
 
