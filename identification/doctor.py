@@ -41,7 +41,10 @@ from .screening import (
 HORIZON = 30               # samples per pressure-replay window (0.3 s at 100 Hz)
 MIN_PREDICTED = 0.02       # score-test gain worth a full fit
 PNEU_KEEP = 0.20           # held-out reduction of the located chambers' mean square to keep an effect
-MECH_KEEP = 0.10           # held-out reduction of the joint's torque residual mean square
+MECH_KEEP = 0.10           # held-out reduction of the joint's torque residual mean square ...
+MECH_BLOCK_S = 0.1         # ... of its 0.1 s means: the equation error's broadband part comes from
+                           # differentiating noisy angles twice, a missing torque lives at the
+                           # motion's frequencies (< 5 Hz; a 0.1 s boxcar's first null is at 10 Hz)
 MIN_T = 4.0                # |value| / stderr of a kept parameter
 ISOLABLE = 0.8             # another family within this fraction of the best's gain: not isolable
 PARSIMONY = 0.03           # held-out gain a richer hypothesis must add over a simpler one at its place
@@ -148,11 +151,12 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
                 if h.label not in tried
                 and not (h.family == "pressure_sensor_offset" and h.where["actuator"] in offset_acts)]
         scored, base = score_mechanical(td, exp, hyps, base_extra)
-        base_h = torque_rms(td_h, base, None if base_extra is None else _regs(kept_mech, held, td_h))
+        block = max(1, int(round(MECH_BLOCK_S * held.rate_hz)))
+        base_h = torque_rms(td_h, base, None if base_extra is None else _regs(kept_mech, held, td_h), block)
         for s in scored:
             ex = s.hyp.regressor(held, td_h)
             full = ex if base_extra is None else np.concatenate([_regs(kept_mech, held, td_h), ex], axis=2)
-            s.heldout_before, s.heldout_after = base_h, torque_rms(td_h, s.fit, full)
+            s.heldout_before, s.heldout_after = base_h, torque_rms(td_h, s.fit, full, block)
         finding = _accept(scored, MECH_KEEP)
         if finding is None:
             break

@@ -111,11 +111,15 @@ def _stack(base_extra, reg, h):
     return reg, names, (lo, hi)
 
 
-def torque_rms(td, fit, extra=None):
-    """Per-joint RMS of the torque residual on valid samples after the fitted model."""
+def torque_rms(td, fit, extra=None, block: int = 1):
+    """Per-joint RMS (J,) of the torque residual on valid samples after the fitted model; with
+    ``block`` > 1, of its means over consecutive blocks of that many samples."""
     v = td.valid
     A = td.regressors[v]
     if extra is not None:
         A = np.concatenate([A, extra[v]], axis=2)
     res = td.residual[v] - np.einsum("njp,p->nj", A, fit.values)
+    if block > 1:
+        n = res.shape[0] // block
+        res = res[: n * block].reshape(n, block, -1).mean(axis=1)
     return np.sqrt(np.mean(res ** 2, axis=0))
