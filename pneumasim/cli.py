@@ -29,6 +29,8 @@ def _cmd_doctor(args):
 
     if args.model in models.available("bench"):  # bench rigs: identification/bench_doctor.py
         return _cmd_bench_doctor(args)
+    if args.model in models.available("jetpipe"):  # identification/jetpipe_doctor.py
+        return _cmd_jetpipe_doctor(args)
     from rich.console import Console
 
     from identification.doctor import diagnose
@@ -55,6 +57,19 @@ def _cmd_bench_doctor(args):
     recs = [read_csv(p) for p in args.recordings]
     holds = [read_csv(p) for p in (args.holdout or [])]
     report = diagnose_bench(args.model, recs, holds)
+    write(report, args.out)
+    print(summary(report))
+    print(f"report: {args.out}/report.md, {args.out}/report.json")
+
+
+def _cmd_jetpipe_doctor(args):
+    from identification.jetpipe_doctor import diagnose_jetpipe
+    from identification.jetpipe_report import summary, write
+    from pneumatics.recording import read_csv
+
+    recs = [read_csv(p) for p in args.recordings]
+    holds = [read_csv(p) for p in (args.holdout or [])]
+    report = diagnose_jetpipe(args.model, recs, holds, progress=lambda msg: print(f"doctor: {msg}", file=sys.stderr))
     write(report, args.out)
     print(summary(report))
     print(f"report: {args.out}/report.md, {args.out}/report.json")

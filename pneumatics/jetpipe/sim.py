@@ -84,7 +84,8 @@ class JetpipeSim:
         ``MAX_FLUID_STEP_S``).
     """
 
-    def __init__(self, jm: JetpipeModel | None = None, kernel: str = "fast", substeps: int | None = None):
+    def __init__(self, jm: JetpipeModel | None = None, kernel: str = "fast", substeps: int | None = None,
+                 effects=None):
         if kernel not in ("fast", "reference"):
             raise PneumasimError(f"unknown kernel {kernel!r}; valid: fast, reference")
         self.jm = jm or build()
@@ -99,11 +100,23 @@ class JetpipeSim:
         self.kernel, self.substeps = kernel, int(substeps)
         self.prm = compiled.pack(self.cfg)
         self.hyst = PlayHysteresis(self.cfg.hysteresis_half_width_n, self.cfg.hysteresis.n_operators)
-        self.y = np.zeros(6)
+        self._y7 = np.zeros(7)  # plant state + the lagged current of effects.py (valve_lag)
+        self.y = self._y7[:6]
+        self.effects, self._fx = None, None
         self.command_a = 0.0
         self._steady: dict[float, np.ndarray] = {}  # force -> steady state (operating_point is slow)
         self._sensor_adr = self.model.sensor("stopper_force").adr[0]
+        if effects is not None:
+            self.set_effects(effects)
         self.reset()
+
+    def set_effects(self, effects):
+        """Switch on a :class:`pneumatics.jetpipe.effects.JetpipeEffects` (None: off); call
+        :meth:`reset` afterwards."""
+        self.effects = effects
+        self._fx = None if effects is None else effects.pack()
+        half = self.cfg.hysteresis_half_width_n if effects is None else effects.half_width_n(self.cfg)
+        self.hyst = PlayHysteresis(half, self.cfg.hysteresis.n_operators)
 
     # -- state ---------------------------------------------------------------------------
     def reset(self, force_n: float | None = None, hysteresis: bool = True):
@@ -122,6 +135,7 @@ class JetpipeSim:
             self.y[:] = self._steady[key]
         self.command_a = float(self.y[I_CURRENT])
         self.hyst.reset(self.cfg.driver.force_constant_n_per_a * self.y[I_CURRENT])
+        self._y7[6] = self.y[I_CURRENT]  # the lagged current (effects.valve_lag) starts settled
         self._write_force()
         mujoco.mj_forward(self.model, self.data)
         # settle the contact (and sensor) on the initial force
@@ -157,8 +171,11 @@ class JetpipeSim:
 
     def observe(self) -> JetpipeObservation:
         d = self.data
-        return JetpipeObservation(d.time, d.qpos[:1].copy(), d.qvel[:1].copy(), self.y[I_P1:I_P2 + 1].copy(),
-                                  np.full(1, -d.sensordata[self._sensor_adr]), self.y[I_CURRENT:I_CURRENT + 1].copy())
+        p, f = self.y[I_P1:I_P2 + 1].copy(), np.full(1, -d.sensordata[self._sensor_adr])
+        if self.effects is not None:  # sensor offsets: what is observed only
+            p, f = self.effects.observe(p, f)
+        return JetpipeObservation(d.time, d.qpos[:1].copy(), d.qvel[:1].copy(), p, f,
+                                  self.y[I_CURRENT:I_CURRENT + 1].copy())
 
     # -- stepping ------------------------------------------------------------------------
     def _write_force(self):
@@ -171,7 +188,15 @@ class JetpipeSim:
         h = self.dt / self.substeps
         for _ in range(n):
             q, qd = float(self.data.qpos[0]), float(self.data.qvel[0])
-            if self.kernel == "fast":
+            if self._fx is not None:  # effects.py: the same step with the effects (7 states)
+                from . import effects as fx_mod
+                if self.kernel == "fast":
+                    fx_mod.step(self._y7, self.hyst.state, self.hyst.radii, self.command_a, q, qd, h,
+                                self.substeps, self.prm, self._fx)
+                else:
+                    fx_mod.reference_step(self._y7, self.hyst, self.command_a, q, qd, h, self.substeps,
+                                          self.cfg, self._fx)
+            elif self.kernel == "fast":
                 compiled.step(self.y, self.hyst.state, self.hyst.radii, self.command_a, q, qd, h,
                               self.substeps, self.prm)
             else:
@@ -233,7 +258,7 @@ class JetpipeSim:
         cfg = self.cfg
         for sec, changes in sections.items():
             cfg = dataclasses.replace(cfg, **{sec: dataclasses.replace(getattr(cfg, sec), **changes)})
-        return JetpipeSim(build(cfg, self.jm.name), self.kernel, self.substeps)
+        return JetpipeSim(build(cfg, self.jm.name), self.kernel, self.substeps, self.effects)
 
     def with_stopper(self, stopper_position_m: float) -> JetpipeSim:
         """A new simulation with the rod stopper at x_s = ``stopper_position_m``."""

@@ -1,0 +1,135 @@
+"""The jet-pipe doctor on concealed effects (issue 4: "and of the jetpipe actuator"): recordings
+of the actuator on its stopper under force control, each with one hidden effect drawn from a
+seed (family, place, magnitude; scenarios/_jetpipe_cases.py), +-3 % errors in the calibrated
+nominal parameters and sensor noise, plus null cases.  The doctor
+(identification/jetpipe_doctor.py) sees only the CSV files; its answers are compared with
+the truth.
+
+Metrics: effect_accuracy (effect cases whose named families are exactly the hidden one, an
+isolability alternative counting), location_accuracy (where, among cases with the family
+right; a place the doctor lists as not separable counts), median_heldout_nrmse_reduction (on
+each finding's channel), null_false_discovery_rate (null cases with any finding or
+unexplained residual), seconds_per_case (the doctor alone), concealed_fraction.
+
+Cases run through :func:`pneumatics.sweep.sweep` (``PNEUMASIM_WORKERS=N``, ``PNEUMASIM_BACKEND``);
+finished cases are kept in ``<out>/sweep/cases/`` (a rerun resumes).
+"""
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from identification.jetpipe_doctor import diagnose_jetpipe
+from pneumatics.io import atomic_write_json
+from pneumatics.recording import read_csv
+from pneumatics.sweep import options_from_env, raise_on_failure, sweep
+
+from ._jetpipe_cases import FAMILIES, make_case
+from .common import main, plt
+
+SUMMARY = "jet-pipe mismatch finder on concealed effects: confusion matrix, accuracy, false discoveries"
+
+
+def plan(fast: bool):
+    """[(seed, family or None)], main seconds, held-out seconds."""
+    if fast:
+        return [(201, None), (202, "force_sensor_offset"), (203, "external_leak")], 5.0, 3.0
+    cases, seed = [], 2000
+    for fam in FAMILIES:
+        for _ in range(3):
+            cases.append((seed, fam))
+            seed += 1
+    cases += [(seed + k, None) for k in range(3)]
+    return cases, 20.0, 10.0
+
+
+def judge(truth: dict, report: dict) -> dict:
+    named = [f["effect"] for f in report["findings"]]
+    if not truth["effects"]:
+        return {"family_ok": not report["findings"] and not report["unexplained"], "location_ok": True, "named": named}
+    e = truth["effects"][0]
+    hits = [f for f in report["findings"] if e["family"] in [f["effect"], *f["alternatives"]]]
+    extra = [f for f in report["findings"] if f not in hits]
+    loc = any(e["where"] in [f["where"], *f["alternative_places"]] for f in hits)
+    return {"family_ok": bool(hits) and not extra, "location_ok": loc, "named": named}
+
+
+def blind_case(case: dict) -> dict:
+    """One case (in any sweep worker): make the recordings, run the doctor on the CSVs, judge."""
+    seed, fam = case["seed"], case["family"]
+    with tempfile.TemporaryDirectory(prefix="blind_jetpipe_") as work:
+        truth = make_case(Path(work), seed, fam, seconds=case["seconds"], heldout_seconds=case["heldout_seconds"])
+        t0 = time.perf_counter()
+        report = diagnose_jetpipe("jetpipe", [read_csv(truth["recordings"]["main"])],
+                                  [read_csv(truth["recordings"]["heldout"])])
+        secs = time.perf_counter() - t0
+    report.pop("_plot", None)
+    j = judge(truth, report)
+    red = [1 - f["heldout_nrmse"]["after"] / f["heldout_nrmse"]["before"] for f in report["findings"]
+           if f["heldout_nrmse"]["before"]]
+    return {"seed": seed, "family": fam or "none", "where": [e["where"] for e in truth["effects"]],
+            "truth": truth["effects"], "verdict": report["verdict"], "named": j["named"],
+            "findings": [{k: f[k] for k in ("effect", "where", "parameters", "alternatives", "alternative_places")}
+                         for f in report["findings"]],
+            "family_ok": j["family_ok"], "location_ok": j["location_ok"], "nrmse_reduction": red, "seconds": secs,
+            "min_r2_nominal": min(truth["r2_nominal_heldout"].values()),
+            "unexplained": [u["where"] for u in report["unexplained"]]}
+
+
+def run(ctx):
+    cases, seconds, held_s = plan(ctx.fast)
+    results = sweep(blind_case, [{"seed": s, "family": f, "seconds": seconds, "heldout_seconds": held_s}
+                                 for s, f in cases], out=ctx.out / "sweep", **options_from_env())
+    raise_on_failure(results, "doctor_blind_benchmark_jetpipe")
+    rows = [r.result for r in results]
+    for r in rows:
+        print(f"  case {r['seed']} {r['family']}: named {r['named'] or ['nothing']}"
+              f"{' + unexplained' if r['unexplained'] else ''} ({r['seconds']:.0f} s)")
+    atomic_write_json(ctx.out / "cases.json", rows)
+    effect_rows = [r for r in rows if r["family"] != "none"]
+    null_rows = [r for r in rows if r["family"] == "none"]
+    fam_ok = [r for r in effect_rows if r["family_ok"]]
+    reductions = [x for r in effect_rows for x in r["nrmse_reduction"]]
+    _confusion(rows, ctx)
+    return {
+        "cases": len(rows),
+        "effect_accuracy": len(fam_ok) / max(len(effect_rows), 1),
+        "location_accuracy": sum(r["location_ok"] for r in fam_ok) / max(len(fam_ok), 1),
+        "median_heldout_nrmse_reduction": float(np.median(reductions)) if reductions else 0.0,
+        "null_false_discovery_rate": sum(r["verdict"] != "no_significant_mismatch" for r in null_rows) / max(len(null_rows), 1),
+        "seconds_per_case": float(np.mean([r["seconds"] for r in rows])),
+        "concealed_fraction": float(np.mean([r["min_r2_nominal"] >= 0.9 for r in effect_rows])) if effect_rows else 1.0,
+    }
+
+
+def _confusion(rows, ctx):
+    fams = list(FAMILIES) + ["none"]
+    cols = fams + ["unexplained"]
+    mat = np.zeros((len(fams), len(cols)))
+    for r in rows:
+        # a finding that lists the hidden family as a not-separable alternative counts for it
+        named = [r["family"] if r["family"] in [f["effect"], *f["alternatives"]] else f["effect"] for f in r["findings"]]
+        named = named or (["unexplained"] if r["unexplained"] else ["none"])
+        for n in named:
+            mat[fams.index(r["family"]), cols.index(n)] += 1 / len(named)
+    fig, ax = plt.subplots(figsize=(8, 6.5))
+    ax.imshow(mat, cmap="Blues")
+    ax.set_xticks(range(len(cols)), cols, rotation=60, ha="right", fontsize=8)
+    ax.set_yticks(range(len(fams)), fams, fontsize=8)
+    for i in range(len(fams)):
+        for k in range(len(cols)):
+            if mat[i, k]:
+                ax.text(k, i, f"{mat[i, k]:.0f}" if mat[i, k] == int(mat[i, k]) else f"{mat[i, k]:.1f}",
+                        ha="center", va="center", fontsize=8, color="white" if mat[i, k] > 0.5 * mat.max() else "black")
+    ax.set_xlabel("named by the doctor")
+    ax.set_ylabel("hidden in the recording")
+    ax.set_title("jet-pipe doctor blind benchmark: confusion matrix")
+    fig.tight_layout()
+    ctx.savefig(fig, "confusion_matrix.png")
+
+
+if __name__ == "__main__":
+    main(__name__)
