@@ -25,6 +25,18 @@ class Scored:
     mods: object = None
     heldout_before: np.ndarray = None   # per-channel held-out RMS (chambers or joints)
     heldout_after: np.ndarray = None
+    heldout_null: np.ndarray = None     # held-out RMS of the fitted model with the effect switched off
+
+    @property
+    def own_gain(self) -> float | None:
+        """Fractional reduction of the held-out mean square that the effect itself brings, over
+        the model refitted with it (None if not measured).  A joint fit also refits the
+        calibration: when that alone explains the gain, the effect is not what paid."""
+        if self.heldout_null is None:
+            return None
+        idx = self.channels
+        n = np.sum(self.heldout_null[idx] ** 2)
+        return float(1.0 - np.sum(self.heldout_after[idx] ** 2) / max(n, 1e-300))
 
     @property
     def heldout_gain(self) -> float:
