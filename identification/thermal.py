@@ -10,7 +10,8 @@ place of the modelled one (Richer & Hurmuzlu 2000 eq. 11 with p V = m R T elimin
                         - (k - 1) p dV/dt + (k - 1) h A (T_w - T) ]
 
 (mdot_in >= 0 enters at T_in, mdot_out <= 0 leaves at T; the flows are the model's at the
-measured pressures).  Its errors decay with tau, so the estimate forgets its start.  A numba
+measured pressures; a piston leak is left out of this observer, the replays carry it).  Its
+errors decay with tau, so the estimate forgets its start.  A numba
 kernel runs the 1 ms loop; :func:`track_reference` is the readable numpy twin the tests compare.
 """
 from __future__ import annotations

@@ -289,8 +289,9 @@ class Simulation:
             self._prev_length[:] = length
 
     def _thermal_update(self, length):
-        """The reference fluid step (eq. 9) for every chamber, then the energy equation with the
-        gas temperature (effects.heat_transfer.thermal_step) for the heat_transfer chambers."""
+        """The fluid step (eq. 9, compiled or numpy by ``kernel``) for every chamber, then the
+        energy equation with the gas temperature (effects.heat_transfer.thermal_step) for the
+        heat_transfer chambers, from the same start, over the same step."""
         tab, th = self.tables, self._thermal
         supply = self._packed[2][13]
         p_old, prev = self.pressure.copy(), self._prev_length.copy()
