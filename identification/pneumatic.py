@@ -20,6 +20,7 @@ from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play
 from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
 
+from .chamber_kernel import pack_glob, step_batch
 from .data import FINE_DT, Experiment
 from .thermal import gas_temperatures
 
@@ -115,6 +116,21 @@ class ChamberModel:
         # heat_transfer: these chambers carry a gas temperature T (W, C) [K]; set T before stepping
         self.thermal = np.array([], int) if mods.heat_w_k is None else np.nonzero(np.isfinite(mods.heat_w_k))[0]
         self.T = np.full((batch, tab.n_chambers), self.gas.temperature_k)
+        self._kernel_args = None if self.thermal.size else self._pack_kernel()
+
+    def _pack_kernel(self):
+        """Arguments of the compiled step (identification.chamber_kernel) for these mods."""
+        tab, mods = self.tab, self.mods
+        C = tab.n_chambers
+
+        def per(arr, n=C):
+            # writable copies: numba compiles read-only arrays (a broadcast view) as another type
+            return np.zeros(n) if arr is None else np.array(np.broadcast_to(arr, (n,)), float)
+
+        glob = pack_glob(self.gas, tab.supply_pa, tab.room_pa, FINE_DT, float(mods.supply_droop_pa_per_kg_s))
+        return (np.array(tab.valve, float), per(mods.supply_scale), per(mods.exhaust_scale),
+                per(mods.valve_leak_m2), float(mods.valve_leak_width_v), per(mods.external_leak_m2),
+                per(mods.piston_leak_m2, C // 2), per(self.dead), per(tab.area), np.zeros(self.W), glob)
 
     def travel(self, length):
         """Chamber travel (W, C) from actuator lengths (W, n_act)."""
@@ -124,7 +140,21 @@ class ChamberModel:
         return np.where(tab.is_a, x, tab.stroke[act] - x)
 
     def step(self, p, u, travel0, travel1):
-        """p (W, C) -> p after one FINE_DT step with commands u (W, C) and travels at its ends."""
+        """p (W, C) -> p after one FINE_DT step with commands u (W, C) and travels at its ends.
+
+        Compiled (identification.chamber_kernel) unless a chamber carries a gas temperature
+        (heat_transfer), which only the numpy reference :meth:`step_reference` models."""
+        if self._kernel_args is None:
+            return self.step_reference(p, u, travel0, travel1)
+        rows, ss, es, vl, vw, xl, pl, dead, area, m_sup, glob = self._kernel_args
+        out = np.empty_like(p)
+        step_batch(np.ascontiguousarray(p, float), np.ascontiguousarray(u, float), np.ascontiguousarray(travel0, float),
+                   np.ascontiguousarray(travel1, float), rows, ss, es, vl, vw, xl, pl, dead, area,
+                   m_sup[: p.shape[0]], glob, out)
+        return out
+
+    def step_reference(self, p, u, travel0, travel1):
+        """The numpy reference of :meth:`step` (and the only path with heat_transfer)."""
         tab, mods, gas = self.tab, self.mods, self.gas
         W, C = p.shape
         a_s, a_e = valve_areas(u.ravel(), self.rows[: W * C])

@@ -1,0 +1,110 @@
+"""Compiled twin of :meth:`identification.pneumatic.ChamberModel.step_reference`: one 1 ms step
+of paper 002 eq. 9 for a batch (W, C) of chamber sets, with the doctor's pneumatic hypotheses
+(valve leak near null, external and piston leaks, calibration scales, supply droop).
+
+The doctor replays a recording hundreds of times (calibration, every hypothesis, the held-out
+scores); in numpy each step costs ~4 ms of small-array calls, most of the doctor's time.  This
+loop costs a few microseconds.  ``tests/test_chamber_kernel.py`` checks it against the numpy
+reference to round-off, effect by effect.
+
+Arrays (C chambers, ordered a, b per actuator; W windows):
+  p, u, travel0, travel1, out (W, C) [Pa, V, m, m, Pa];  rows (C, 8) valve columns
+  (pneumatics.valve.VALVE_COLUMNS);  supply_scale, exhaust_scale, valve_leak_m2, external_leak_m2,
+  dead_m3, area_m2 (C,);  piston_leak_m2 (C // 2,);  m_supply (W,) total supply flow of the last
+  step [kg/s] (read for the droop, then overwritten);  glob as in :mod:`pneumatics.kernel`.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from pneumatics.kernel import GAMMA, _orifice
+from pneumatics.medium import _psi
+
+
+def pack_glob(gas, supply_pa: float, room_pa: float, dt: float, droop: float) -> np.ndarray:
+    """The kernel's gas/plant constants (layout of pneumatics.kernel's ``glob``)."""
+    slope = gas.c_sub * _psi(gas.laminar_ratio, gas.heat_capacity_ratio) / (1.0 - gas.laminar_ratio)
+    return np.concatenate([gas.as_array(), [supply_pa, room_pa, dt, slope, droop, supply_pa]])
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _valve(u, row, scale_s, scale_e, leak, leak_width):
+    """pneumatics.valve.valve_areas for one command, scaled, plus the valve_leak hypothesis."""
+    null, half, f, width, dead, gam, a_s, a_e = row[0], row[1], row[2], row[3], row[4], row[5], row[6], row[7]
+    s = min(max((u - null) / half, -1.0), 1.0)
+    w = width / half
+    d = dead / half
+    lk = f * math.exp(-(s / w) ** 2)
+    ramp_s = max(0.0, (s - d) / (1.0 - d)) ** gam
+    ramp_e = max(0.0, (-s - d) / (1.0 - d)) ** gam
+    out_s = a_s * (lk + (1.0 - f) * ramp_s) * scale_s
+    out_e = a_e * (lk + (1.0 - f) * ramp_e) * scale_e
+    if leak > 0.0:
+        g = math.exp(-((u - null) / leak_width) ** 2)
+        out_s += leak * g
+        out_e += leak * g
+    return out_s, out_e
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ps, glob, f, jac, m_s):
+    """Pressure rates f and their diagonal Jacobian jac (C,) at pressures q (C,)."""
+    rt, n, room = glob[0] * glob[2], glob[3], glob[9]
+    C = q.shape[0]
+    m = np.empty(C)
+    dm = np.empty(C)
+    for c in range(C):
+        ms, _, dms = _orifice(a_s[c], ps, q[c], glob)
+        me, dme, _ = _orifice(a_e[c], q[c], room, glob)
+        m[c] = ms - me
+        dm[c] = dms - dme
+        m_s[c] = ms
+        if ext[c] > 0.0:
+            mx, dmx, _ = _orifice(ext[c], q[c], room, glob)
+            m[c] -= mx
+            dm[c] -= dmx
+    for j in range(C // 2):
+        if piston[j] > 0.0:
+            mab, da, db = _orifice(piston[j], q[2 * j], q[2 * j + 1], glob)
+            m[2 * j] -= mab
+            m[2 * j + 1] += mab
+            dm[2 * j] -= da
+            dm[2 * j + 1] += db
+    for c in range(C):
+        f[c] = n / vol[c] * (rt * m[c] - q[c] * vdot[c])
+        jac[c] = n / vol[c] * (rt * dm[c] - vdot[c])
+
+
+@numba.njit(cache=True, error_model="numpy")
+def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_leak_m2, leak_width_v,
+               external_leak_m2, piston_leak_m2, dead_m3, area_m2, m_supply, glob, out):
+    """One linearly implicit ROS2 step (chamber.integrate's stages, fixed dt) for every window."""
+    W, C = p.shape
+    dt, droop = glob[10], glob[12]
+    a_s, a_e = np.empty(C), np.empty(C)
+    vol, vdot = np.empty(C), np.empty(C)
+    f0, jac, f1, jac1 = np.empty(C), np.empty(C), np.empty(C), np.empty(C)
+    m_s, m_s1 = np.empty(C), np.empty(C)
+    k1, q1 = np.empty(C), np.empty(C)
+    for w in range(W):
+        ps = glob[8] - droop * m_supply[w] if droop > 0.0 else glob[8]
+        for c in range(C):
+            a_s[c], a_e[c] = _valve(u[w, c], rows[c], supply_scale[c], exhaust_scale[c], valve_leak_m2[c], leak_width_v)
+            vol[c] = dead_m3[c] + area_m2[c] * 0.5 * (travel0[w, c] + travel1[w, c])
+            vdot[c] = area_m2[c] * (travel1[w, c] - travel0[w, c]) / dt
+        _rhs(p[w], vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, ps, glob, f0, jac, m_s)
+        for c in range(C):
+            k1[c] = f0[c] / (1.0 - GAMMA * dt * jac[c])
+            q1[c] = p[w, c] + dt * k1[c]
+        _rhs(q1, vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, ps, glob, f1, jac1, m_s1)
+        total = 0.0
+        for c in range(C):
+            denom = 1.0 - GAMMA * dt * jac[c]
+            k2 = (f1[c] - 2.0 * k1[c]) / denom
+            q = p[w, c] + 1.5 * dt * k1[c] + 0.5 * dt * k2
+            out[w, c] = q if (math.isfinite(q) and q > 0.0) else p[w, c]
+            total += max(m_s[c], 0.0)
+        m_supply[w] = total

@@ -1,0 +1,77 @@
+"""The doctor's compiled chamber step (identification.chamber_kernel) against its numpy reference
+(ChamberModel.step_reference): one step on random states with each pneumatic hypothesis, and a
+whole pressure replay of a recording."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from identification.data import prepare
+from identification.pneumatic import ChamberModel, PneumaticMods, Windows, replay
+from pneumatics.recording import read_csv
+from pneumatics.robot import load_robot
+
+BLIND = Path(__file__).resolve().parents[2] / "shared" / "samples" / "arm2-blind"
+
+ROBOT = load_robot("arm2")
+C = ROBOT.tables.n_chambers
+W = 7
+
+EFFECTS = {
+    "nominal": {},
+    "calibration": {"supply_scale": np.array([0.9, 1.1, 1.0, 0.8]), "exhaust_scale": np.array([1.2, 0.9, 1.0, 1.1]),
+                    "dead_volume_scale": np.array([1.3, 0.7, 1.0, 1.5])},
+    "valve_leak": {"valve_leak_m2": np.array([2e-8, 0.0, 5e-8, 0.0]), "valve_leak_width_v": 0.4},
+    "external_leak": {"external_leak_m2": np.array([0.0, 3e-8, 0.0, 1e-8])},
+    "piston_leak": {"piston_leak_m2": np.array([2e-8, 4e-8])},
+    "supply_droop": {"supply_droop_pa_per_kg_s": 3e7},
+    "line_volume": {"extra_volume_m3": np.array([0.0, 2e-6, 1e-6, 0.0])},
+}
+
+
+def _mods(name):
+    m = PneumaticMods.nominal(C)
+    return m.copy(**EFFECTS[name])
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.sampled_from(sorted(EFFECTS)), st.integers(0, 2**32 - 1))
+def test_compiled_step_matches_the_numpy_reference(effect, seed):
+    """Random pressures (room to supply), commands (0-10 V) and piston motions (up to 0.5 m/s):
+    three successive steps agree to 1e-10 relative (the droop carries the supply flow over)."""
+    rng = np.random.default_rng(seed)
+    tab = ROBOT.tables
+    a, b = ChamberModel(ROBOT, _mods(effect), W), ChamberModel(ROBOT, _mods(effect), W)
+    assert a._kernel_args is not None
+    p_a = p_b = rng.uniform(tab.room_pa, tab.supply_pa, (W, C))
+    x = rng.uniform(0.0, 0.07, (W, C))
+    for _ in range(3):
+        u = rng.uniform(0.0, 10.0, (W, C))
+        x1 = np.clip(x + rng.uniform(-5e-4, 5e-4, (W, C)), 0.0, 0.07)
+        p_a, p_b = a.step(p_a, u, x, x1), b.step_reference(p_b, u, x, x1)
+        np.testing.assert_allclose(p_a, p_b, rtol=1e-10)
+        x = x1
+    assert np.all(np.isfinite(p_a)) and np.all(p_a > 0)
+
+
+@pytest.fixture(scope="module")
+def experiment():
+    if not BLIND.is_dir():
+        pytest.skip("shared/samples not beside the repo")
+    return prepare(ROBOT, read_csv(BLIND / "case_8e12431d.csv").slice(0.0, 4.0))
+
+
+@pytest.mark.parametrize("effect", ["nominal", "valve_leak", "piston_leak", "supply_droop"])
+def test_compiled_replay_matches_the_numpy_replay(experiment, effect, monkeypatch):
+    """A whole pressure replay (1 s windows over 4 s of a published recording) through the compiled step
+    equals the numpy reference's to 1e-9 relative."""
+    win = Windows.tile(experiment.t.size, 100, stride=50)
+    fast, meas = replay(experiment, win, _mods(effect))
+    monkeypatch.setattr(ChamberModel, "step", ChamberModel.step_reference)
+    slow, meas2 = replay(experiment, win, _mods(effect))
+    np.testing.assert_array_equal(meas, meas2)
+    np.testing.assert_allclose(fast, slow, rtol=1e-9)
+    if effect == "nominal":  # and it replays the recording (made without effects) [Pa]
+        assert np.sqrt(np.mean((fast - meas) ** 2)) < 2e4
