@@ -229,26 +229,44 @@ if _FUNCTIONS is not None:
 
         Adds p (n_ch,), qpos (nq,) and qvel (nv,) at each of the n new instants into ``acc``
         (n_ch+nq+nv,), for sensor averaging over a control period (paper 002 §II).
+
+        Only this loop is compiled in every process (the MuJoCo function addresses it calls
+        change from one process to the next, so it cannot be cached); the fluid work is in the
+        cached functions it calls, which keeps a new process's first step at ~1 s, not ~25 s.
         """
         for k in range(n):
             _mj_step1(model_addr, data_addr)
-            if k > 0:
-                integrate_chambers(p, areas, prev_length, length, act, ch, glob)
-                for j in range(act.shape[0]):
-                    prev_length[j] = length[int(act[j, 4])]
-                _accumulate(acc, p, qpos, qvel)
-            write_forces(p, ctrl, act, glob)
-            write_friction(qvel, qfrc_applied, fric)
+            _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc,
+                              qfrc_applied, fric)
             _mj_step2(model_addr, data_addr)
         # catch up: actuator lengths at the new state, then the last step's pressures
         _mj_kinematics(model_addr, data_addr)
         _mj_comPos(model_addr, data_addr)
         _mj_tendon(model_addr, data_addr)
         _mj_transmission(model_addr, data_addr)
-        fluid_step_fast(p, areas, prev_length, length, ctrl, act, ch, glob)
-        _accumulate(acc, p, qpos, qvel)
+        _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc)
 else:  # pragma: no cover - platforms without libmujoco.so
     run_steps_compiled = None
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, qfrc_applied, fric):
+    """Between mj_step1 and mj_step2 of step k: integrate the fluid over the step that ended
+    (none before the first), accumulate the sensors, write forces and friction."""
+    if k > 0:
+        integrate_chambers(p, areas, prev_length, length, act, ch, glob)
+        for j in range(act.shape[0]):
+            prev_length[j] = length[int(act[j, 4])]
+        _accumulate(acc, p, qpos, qvel)
+    write_forces(p, ctrl, act, glob)
+    write_friction(qvel, qfrc_applied, fric)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc):
+    """After the last step's kinematics: its fluid step, forces, and sensor accumulation."""
+    fluid_step_fast(p, areas, prev_length, length, ctrl, act, ch, glob)
+    _accumulate(acc, p, qpos, qvel)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
