@@ -23,6 +23,13 @@ rod, two chamber transducers, coil current, optionally the jet-position sensor):
    improvement are listed as not separable with these sensors (isolability).
 5. **Unexplained**: channels whose held-out mean square stays above twice their noise floor^2,
    overall and in at least two 1 s windows (listed).
+6. **Guards and regimes** (held-out data): each kept effect's bootstrap inclusion probability
+   (block bootstrap over held-out blocks of whether its J reduction still passes the keep rule,
+   :func:`identification.doctor._bootstrap_inclusion`); the regime where its squared-residual
+   reduction concentrates (:mod:`identification.jetpipe_regimes`: command level, jet distance
+   from centre, time since a command reversal or step, pressure levels, flow into each chamber,
+   jet velocity), likewise for each unexplained entry; Ljung-Box Q of each channel's held-out
+   residual and its cross-correlation with the current command, before and after the findings.
 """
 from __future__ import annotations
 
@@ -31,13 +38,17 @@ import time
 
 import numpy as np
 
+from pneumatics.errors import UnknownNameError
 from pneumatics.jetpipe.effects import JetpipeEffects
 from pneumatics.jetpipe.params import JetpipeCfg
 from pneumatics.recording import Recording
 
 from . import lsq
+from .doctor import _bootstrap_inclusion
 from .jetpipe_data import HOLDOUT, load_traces
-from .jetpipe_replay import measured, replay
+from .jetpipe_regimes import LB_LAGS, concentrate, features, input_xcorr, ljung_box_p
+from .jetpipe_replay import RESTART_S, measured, replay
+from .regimes import ljung_box
 
 KEEP = 0.20          # held-out reduction of J an effect must bring to be named
 MIN_DJ = 1.0         # ... and at least one noise variance (J is in noise variances summed over the
@@ -68,7 +79,7 @@ class Hypothesis:
     unit: float         # one scaled parameter unit in SI (keeps the optimiser's steps sensible)
     lower: float        # bounds in SI
     upper: float
-    regime: str
+    regime: str         # where the physics says it should show (the report gives the measured one)
 
     @property
     def name(self) -> str:
@@ -193,13 +204,73 @@ def _where_of(channel):
             "jet": {"actuator": "piston", "sensor": "jet"}}[channel]
 
 
+def select_hypotheses(names=None) -> list[Hypothesis]:
+    """The hypotheses to test: all, or those whose effect family or full name (``effect[place]``)
+    is in ``names``."""
+    if names is None:
+        return list(HYPOTHESES)
+    valid = {h.effect for h in HYPOTHESES} | {h.name for h in HYPOTHESES}
+    for n in names:
+        if n not in valid:
+            raise UnknownNameError("jet-pipe doctor hypothesis", n, valid)
+    return [h for h in HYPOTHESES if h.effect in names or h.name in names]
+
+
+def _sample_residuals(prob, traces, dev, fx) -> list[dict]:
+    """Per trace: channel -> (N,) measured - model (every sample; ``trace.scored`` marks the scored)."""
+    cfg = _cfg(prob.cfg0, dev)
+    out = []
+    for tr in traces:
+        pred, meas = replay(tr, cfg, fx), measured(tr)
+        out.append({c: meas[c] - pred[c] for c in prob.channels})
+    return out
+
+
+def _weighted(prob, res: list[dict], channels=None) -> list[np.ndarray]:
+    """Per trace: (N,) sum over ``channels`` of r_c^2 / sigma_c^2 (the doctor's J per sample)."""
+    chans = channels or prob.channels
+    return [sum(r[c] ** 2 / prob.sigma[c] ** 2 for c in chans) for r in res]
+
+
+def _scored(traces, per_trace: list[np.ndarray]) -> np.ndarray:
+    return np.concatenate([x[t.scored] for t, x in zip(traces, per_trace)])
+
+
+def _block_sums(traces, per_trace: list[np.ndarray], block_s: float) -> np.ndarray:
+    """(B,) sums of a per-sample quantity over the scored samples of consecutive ``block_s`` blocks."""
+    out = []
+    for tr, x in zip(traces, per_trace):
+        b = np.floor((tr.time - tr.time[0]) / block_s).astype(int)[tr.scored]
+        n = np.bincount(b)
+        out.append(np.bincount(b, weights=x[tr.scored])[n > 0])
+    return np.concatenate(out)
+
+
+def _residual_tests(prob, traces, res: list[dict]) -> tuple[dict, dict]:
+    """Ljung's tests on the held-out residual per channel: ({channel: {"q", "p"}} Ljung-Box over
+    lags 1..LB_LAGS, {channel: input cross-correlation with the current command})."""
+    lb, xc = {}, {}
+    dt = float(np.median(np.diff(traces[0].time)))
+    for c in prob.channels:
+        r = [x[c][t.scored] for t, x in zip(traces, res)]
+        q = ljung_box(np.concatenate(r), LB_LAGS)
+        lb[c] = {"q": q, "p": ljung_box_p(q)}
+        xc[c] = input_xcorr(r, [t.command_a[t.scored] for t in traces], dt)
+    return lb, xc
+
+
 def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Recording] = (),
-                     holdout_fraction: float = HOLDOUT, progress=None) -> dict:
-    """Diagnose jet-pipe recordings of ``model``; returns the report dict (bench_report.write)."""
+                     holdout_fraction: float = HOLDOUT, progress=None, hypotheses=None,
+                     fit_seconds: float = FIT_SECONDS) -> dict:
+    """Diagnose jet-pipe recordings of ``model``; returns the report dict (jetpipe_report.write).
+
+    ``hypotheses``: effect families or hypothesis names to test (default all of
+    :data:`HYPOTHESES`); ``fit_seconds``: how much of the fitted part the fits use (its start)."""
     say = progress or (lambda msg: None)
     t_start = time.perf_counter()
+    hyps = select_hypotheses(hypotheses)
     cfg0, train, held, sources = load_traces(model, recordings, holdouts, holdout_fraction)
-    fit_s = [FIT_SECONDS * (t.time[-1] - t.time[0]) / sum(u.time[-1] - u.time[0] for u in train) for t in train]
+    fit_s = [fit_seconds * (t.time[-1] - t.time[0]) / sum(u.time[-1] - u.time[0] for u in train) for t in train]
     train = [t.head(s) for t, s in zip(train, fit_s)]
     prob = _Problem(cfg0, train, held)
     none = JetpipeEffects()
@@ -220,10 +291,21 @@ def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Rec
     if not calibration_kept:
         dev, j_base = zero.copy(), j_nominal
 
-    kept, fx, hypotheses_out, findings = [], none, [], []
+    kept, fx, hypotheses_out, findings, regime_plots = [], none, [], [], []
     j_now, dev_base = j_base, dev.copy()
+    # regime features of the held-out data, from the measurement and the calibrated model
+    res_base = _sample_residuals(prob, held, dev_base, none)
+    cfg_base = _cfg(cfg0, dev_base)
+    feats_per = [features(t.time, t.command_a, t.p_a, t.p_b, replay(t, cfg_base, none), cfg_base.jet.offset_m)
+                 for t in held]
+    feats = {k: np.concatenate([f[k][t.scored] for t, f in zip(held, feats_per)]) for k in feats_per[0]}
+    held_s = sum(float(t.time[-1] - t.time[0]) for t in held)
+    block_s = min(RESTART_S, held_s / 10.0)  # at least ten blocks to resample
+    res_now = res_base
     for rnd in range(3):
-        cands = [h for h in HYPOTHESES if h.field not in {k.field for k in kept}]
+        cands = [h for h in hyps if h.field not in {k.field for k in kept}]
+        if not cands:
+            break
         # every hypothesis refitted together with the calibration (an effect the nominal model
         # lacks bends a calibration fitted without it: the two must move together), starting
         # in the first round from the nominal parameters, then judged on the held-out data
@@ -251,11 +333,33 @@ def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Rec
         before, after = _nrmse(prob, held, dev, fx, ch), _nrmse(prob, held, joint.values[1:], fx_new, ch)
         gain = j_now - j_new
         alts = [(h, j) for j, h, *_ in joint_scored[1:] if gain > 0 and (j_now - j) >= ALIKE * gain]
+        # where the held-out improvement lies, and how sure: block bootstrap of the keep rule
+        # (relative cut >= KEEP and absolute cut >= MIN_DJ, the latter as a share of J before)
+        res_new = _sample_residuals(prob, held, joint.values[1:], fx_new)
+        w_before, w_after = _weighted(prob, res_now), _weighted(prob, res_new)
+        inclusion = _bootstrap_inclusion(_block_sums(held, w_before, block_s), _block_sums(held, w_after, block_s),
+                                         max(KEEP, MIN_DJ / j_now))
+        reduction = _scored(held, w_before) - _scored(held, w_after)
+        where_reg = concentrate(reduction, feats)
+        # the finding's channel inside that regime (all held-out samples when it is spread out)
+        in_reg = np.ones(reduction.size, bool)
+        if where_reg["feature"] is not None:
+            x, (lo, hi) = feats[where_reg["feature"]], where_reg["bin"]
+            in_reg = (x >= lo) & (x <= hi)
+        scale = max(float(np.std(_scored(held, [measured(t)[ch] for t in held]))), 1e-300)
+        nrmse_in = {k: float(np.sqrt(np.mean(_scored(held, [r[ch] for r in rs])[in_reg] ** 2)) / scale)
+                    for k, rs in (("before", res_now), ("after", res_new))}
+        regime_plots.append({"title": f"{best.effect} at {' '.join(map(str, best.where.values()))}",
+                             "feature": where_reg["feature"], "feats": feats, "before": _scored(held, w_before),
+                             "after": _scored(held, w_after)})
         findings.append({
-            "effect": best.effect, "where": best.where, "regime": best.regime,
+            "effect": best.effect, "where": best.where, "regime": where_reg["regime"],
+            "regime_detail": {k: where_reg[k] for k in ("feature", "bin", "lift", "share", "cover", "by_feature")},
+            "expected_regime": best.regime, "inclusion_probability": inclusion,
             "windows": _windows(prob, held, joint.values[1:], fx, fx_new, ch),
             "parameters": {best.field: {"value": float(value), "stderr": float(se)}},
             "heldout_nrmse": {"before": before, "after": after}, "heldout_channel": ch,
+            "heldout_nrmse_in_regime": nrmse_in,
             "heldout_j": {"before": j_now, "after": j_new},
             "alternatives": sorted({h.effect for h, _ in alts if h.effect != best.effect}),
             "alternative_places": [h.where for h, _ in alts if h.effect == best.effect and h.where != best.where],
@@ -264,7 +368,7 @@ def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Rec
                          f"({100 * (1 - j_new / j_now):.0f} % less), parameter {abs(value) / max(se, 1e-300):.0f} "
                          f"standard errors from zero")})
         kept.append(best)
-        fx, dev, j_now = fx_new, joint.values[1:], j_new
+        fx, dev, j_now, res_now = fx_new, joint.values[1:], j_new, res_new
 
     _, per_final = prob.score(held, dev, fx)
     excess = {c: max(v - 1.0, 0.0) for c, v in per_final.items()}
@@ -275,8 +379,14 @@ def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Rec
         # one burst in one window (the exact model leaves such bursts at large command steps in
         # simulated recordings) is no evidence of missing physics: two 1 s windows must carry it
         if len(windows) >= MIN_WINDOWS:
-            unexplained.append({"where": _where_of(c), "channel": c,
-                                "regime": f"{c} residual at {np.sqrt(v):.1f} x its noise floor",
+            w = _scored(held, _weighted(prob, res_now, [c]))
+            reg = concentrate(w - 1.0, feats)  # residual energy above the noise floor
+            regime_plots.append({"title": f"unexplained {c}", "feature": reg["feature"], "feats": feats,
+                                 "before": _scored(held, _weighted(prob, res_base, [c])), "after": w})
+            unexplained.append({"where": _where_of(c), "channel": c, "regime": reg["regime"],
+                                "regime_detail": {k: reg[k] for k in ("feature", "bin", "lift", "share", "cover",
+                                                                      "by_feature")},
+                                "level": f"{c} residual at {np.sqrt(v):.1f} x its noise floor",
                                 "windows": windows, "share_of_residual": excess[c] / total})
     verdict = "missing_physics" if findings or unexplained else "no_significant_mismatch"
     isolable = all(not f["alternatives"] and not f["alternative_places"] for f in findings)
@@ -293,6 +403,8 @@ def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Rec
         nominal = getattr(getattr(cfg0, sec), fields[0])
         cal_out[name] = float(nominal * (1.0 + d))
     base_nrmse = {c: _nrmse(prob, held, dev_base, none, c) for c in prob.channels}  # before any finding
+    lb_before, xc_before = _residual_tests(prob, held, res_base)
+    lb_after, xc_after = _residual_tests(prob, held, res_now)
     return {
         "model": model, "verdict": verdict, "verdict_detail": detail, "isolable": isolable,
         "baseline": {"heldout_nrmse": base_nrmse, "heldout_r2": {c: 1.0 - v ** 2 for c, v in base_nrmse.items()},
@@ -309,8 +421,12 @@ def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Rec
                         "heldout_j": {"nominal": j_nominal, "calibrated": j_base, "final": j_now},
                         "heldout_ms_over_noise": per_final, "calibration_condition": cal.condition,
                         "calibration_at_bound": cal.at_bound, "replays": prob.calls,
+                        "hypotheses_tested": [h.name for h in hyps],
+                        "ljung_box_heldout": {"lags": LB_LAGS, "before": lb_before, "after": lb_after},
+                        "input_xcorr_heldout": {"input": "current command", "before": xc_before, "after": xc_after},
+                        "bootstrap_block_seconds": block_s,
                         "seconds": time.perf_counter() - t_start},
-        "_plot": {"problem": prob, "held": held},
+        "_plot": {"problem": prob, "held": held, "regimes": regime_plots},
     }
 
 

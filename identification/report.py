@@ -125,12 +125,15 @@ def _plots(report, replays, out: Path):
 def _rrd(report, replays, out: Path, robot):
     from pneumatics.rerun_log import RerunLogger
 
-    logger = RerunLogger(robot, path=out / "doctor.rrd", recording_name=f"doctor {report['model']}")
-    for prefix, key, attr in (("measured", "baseline", "measured"), ("nominal", "nominal", "predicted"),
-                              ("calibrated", "baseline", "predicted"), ("corrected", "final", "predicted")):
-        r = replays[key]
-        logger.log_recording(Recording(r.times, getattr(r, attr), {}), prefix=prefix)
-    logger.close()
+    def save(tmp):  # atomic: a stopped run leaves the previous doctor.rrd whole
+        logger = RerunLogger(robot, path=tmp, recording_name=f"doctor {report['model']}")
+        for prefix, key, attr in (("measured", "baseline", "measured"), ("nominal", "nominal", "predicted"),
+                                  ("calibrated", "baseline", "predicted"), ("corrected", "final", "predicted")):
+            r = replays[key]
+            logger.log_recording(Recording(r.times, getattr(r, attr), {}), prefix=prefix)
+        logger.close()
+
+    atomic_save(out / "doctor.rrd", save)
 
 
 def _markdown(report, pngs) -> str:

@@ -72,7 +72,7 @@ def _cmd_jetpipe_doctor(args):
     report = diagnose_jetpipe(args.model, recs, holds, progress=lambda msg: print(f"doctor: {msg}", file=sys.stderr))
     write(report, args.out)
     print(summary(report))
-    print(f"report: {args.out}/report.md, {args.out}/report.json")
+    print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
 
 
 def _cmd_import(args):

@@ -1,13 +1,13 @@
 """Recordings of the jet-pipe actuator with hidden physics, made by pneumasim itself: the jet-pipe
 doctor's blind cases (scenarios/doctor_blind_benchmark_jetpipe.py).
 
-A case = a seed -> at most one effect of pneumatics/jetpipe/effects.py (family, place and
-magnitude drawn), +-3 % errors in the nominal parameters the doctor calibrates (C_d, both dead
-volumes, the jet offset), sensor noise; the actuator on its stopper under the
+A case = a seed -> no effect, one, or a few of different families of
+pneumatics/jetpipe/effects.py (family, place and magnitude drawn), +-3 % errors in the nominal
+parameters the doctor calibrates (C_d, both dead volumes, the jet offset), sensor noise; the actuator on its stopper under the
 feedforward + proportional force controller (controllers/force.py, k_p = 20, 1 kHz) tracking a
 random reference (a sum of sines on smoothed random steps within 15-60 N); a recording to fit
-and a different held-out one.  **Concealed**: the effect is halved until the nominal model
-without it (true parameters) still reaches held-out R^2 >= 0.9 on every channel with restarted
+and a different held-out one.  **Concealed**: the effects are halved (together) until the nominal
+model without them (true parameters) still reaches held-out R^2 >= 0.9 on every channel with restarted
 replays.  The doctor sees only the CSV files; the truth is written beside them.
 """
 from __future__ import annotations
@@ -20,6 +20,7 @@ import numpy as np
 
 from controllers.force import ForceCfg
 from identification.jetpipe_replay import make_trace, measured, replay
+from pneumatics.errors import UnknownNameError
 from pneumatics.io import atomic_write_json
 from pneumatics.jetpipe.effects import JetpipeEffects
 from pneumatics.jetpipe.sim import JetpipeSim, build
@@ -100,32 +101,40 @@ def r2_nominal(rec, cfg) -> dict:
     return {c: float(1 - np.mean((meas[c] - pred[c])[m] ** 2) / np.var(meas[c][m])) for c in meas}
 
 
-def make_case(folder: Path, seed: int, family: str | None, seconds: float = 30.0, heldout_seconds: float = 15.0) -> dict:
-    """Write ``main.csv``, ``heldout.csv`` and ``truth.json`` into ``folder``; returns the truth."""
+def make_case(folder: Path, seed: int, family, seconds: float = 30.0, heldout_seconds: float = 15.0) -> dict:
+    """Write ``main.csv``, ``heldout.csv`` and ``truth.json`` into ``folder``; returns the truth.
+
+    ``family``: None (a null case), one family name, or a list of families (one place and
+    magnitude drawn for each; with two, all are halved together until concealed)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    families = [] if family is None else [family] if isinstance(family, str) else list(family)
+    for f in families:
+        if f not in FAMILIES:
+            raise UnknownNameError("jet-pipe effect family", f, FAMILIES)
+    if len(set(families)) != len(families):
+        raise ValueError(f"jet-pipe case: families {families} repeat; one effect per family")
     rng = np.random.default_rng(seed)
     cfg = perturbed_cfg(build().cfg, rng)
-    effects, fx = [], JetpipeEffects()
-    if family is not None:
-        places = FAMILIES[family]
+    drawn = []
+    for fam in families:
+        places = FAMILIES[fam]
         field, where, draw = places[int(rng.integers(0, len(places)))]
-        value = float(draw(rng))
-        for _ in range(8):  # conceal: halve until the nominal model still explains R^2 >= 0.9
-            fx = dataclasses.replace(JetpipeEffects(), **{field: value})
-            held = record(cfg, fx, np.random.default_rng(seed + 1), heldout_seconds)
-            r2 = r2_nominal(held, cfg)
-            if min(r2.values()) >= R2_CONCEALED:
-                break
-            value *= 0.5
-        effects.append({"family": family, "where": where, "parameters": {field: value}, "r2_nominal": r2})
-    else:
+        drawn.append((fam, field, where, float(draw(rng))))
+    scale, fx = 1.0, JetpipeEffects()
+    for _ in range(8 if drawn else 1):  # conceal: halve until the model without them keeps R^2 >= 0.9
+        fx = dataclasses.replace(JetpipeEffects(), **{field: v * scale for _, field, _, v in drawn})
         held = record(cfg, fx, np.random.default_rng(seed + 1), heldout_seconds)
         r2 = r2_nominal(held, cfg)
+        if min(r2.values()) >= R2_CONCEALED:
+            break
+        scale *= 0.5
+    effects = [{"family": fam, "where": where, "parameters": {field: v * scale}, "r2_nominal": r2}
+               for fam, field, where, v in drawn]
     main = record(cfg, fx, np.random.default_rng(seed + 2), seconds)
     main.to_csv(folder / "main.csv")
     held.to_csv(folder / "heldout.csv")
-    truth = {"seed": seed, "effects": effects, "r2_nominal_heldout": r2,
+    truth = {"seed": seed, "families": families or ["none"], "effects": effects, "r2_nominal_heldout": r2,
              "parameter_errors": {"discharge_coefficient": cfg.ports.discharge_coefficient,
                                   "dead_volume_1_m3": cfg.cylinder.dead_volume_1_m3,
                                   "dead_volume_2_m3": cfg.cylinder.dead_volume_2_m3, "jet_offset_m": cfg.jet.offset_m},

@@ -1,15 +1,19 @@
 """The jet-pipe doctor on concealed effects (issue 4: "and of the jetpipe actuator"): recordings
 of the actuator on its stopper under force control, each with one hidden effect drawn from a
 seed (family, place, magnitude; scenarios/_jetpipe_cases.py), +-3 % errors in the calibrated
-nominal parameters and sensor noise, plus null cases.  The doctor
+nominal parameters and sensor noise, plus null cases and cases with two effects of different
+families (concealed together), scored as scenarios/doctor_blind_benchmark.py scores arm2's.  The doctor
 (identification/jetpipe_doctor.py) sees only the CSV files; its answers are compared with
 the truth.
 
-Metrics: effect_accuracy (effect cases whose named families are exactly the hidden one, an
-isolability alternative counting), location_accuracy (where, among cases with the family
+Metrics: effect_accuracy (effect cases whose named families are exactly the hidden ones, an
+isolability alternative counting), two_effect_accuracy (the same over the two-effect cases
+alone), location_accuracy (where, for every hidden effect, among cases with the families
 right; a place the doctor lists as not separable counts), median_heldout_nrmse_reduction (on
-each finding's channel), null_false_discovery_rate (null cases with any finding or
-unexplained residual), seconds_per_case (the doctor alone), concealed_fraction.
+each finding's channel, whole held-out file), median_heldout_nrmse_reduction_in_regime (the
+same inside the regime bin where the finding's improvement concentrates),
+null_false_discovery_rate (null cases with any finding or unexplained residual),
+seconds_per_case (the doctor alone), concealed_fraction, median_inclusion_probability.
 
 Cases run through :func:`pneumatics.sweep.sweep` (``PNEUMASIM_WORKERS=N``, ``PNEUMASIM_BACKEND``);
 finished cases are kept in ``<out>/sweep/cases/`` (a rerun resumes).
@@ -33,35 +37,48 @@ from .common import main, plt
 SUMMARY = "jet-pipe mismatch finder on concealed effects: confusion matrix, accuracy, false discoveries"
 
 
+#: two-effect cases: families that act on different things (a sensor and a flow, the valve and
+#: the supply, the valve's memory and a transducer)
+PAIRS = (["external_leak", "force_sensor_offset"], ["valve_lag", "supply_droop"],
+         ["valve_hysteresis", "pressure_sensor_offset"])
+
+
 def plan(fast: bool):
-    """[(seed, family or None)], main seconds, held-out seconds."""
+    """[(seed, [families])], main seconds, held-out seconds."""
     if fast:
-        return [(201, None), (202, "force_sensor_offset"), (203, "external_leak")], 5.0, 3.0
+        return [(201, []), (202, ["force_sensor_offset"]), (203, ["external_leak"])], 5.0, 3.0
     cases, seed = [], 2000
     for fam in FAMILIES:
         for _ in range(3):
-            cases.append((seed, fam))
+            cases.append((seed, [fam]))
             seed += 1
-    cases += [(seed + k, None) for k in range(3)]
+    cases += [(seed + k, []) for k in range(3)]
+    seed += 3
+    cases += [(seed + k, list(pair)) for k, pair in enumerate(PAIRS)]
     return cases, 20.0, 10.0
 
 
 def judge(truth: dict, report: dict) -> dict:
+    """Every hidden family named (or listed as a not-separable alternative) at its place, and no
+    finding of a family that was not hidden; a null case: no finding and nothing unexplained."""
     named = [f["effect"] for f in report["findings"]]
     if not truth["effects"]:
         return {"family_ok": not report["findings"] and not report["unexplained"], "location_ok": True, "named": named}
-    e = truth["effects"][0]
-    hits = [f for f in report["findings"] if e["family"] in [f["effect"], *f["alternatives"]]]
-    extra = [f for f in report["findings"] if f not in hits]
-    loc = any(e["where"] in [f["where"], *f["alternative_places"]] for f in hits)
-    return {"family_ok": bool(hits) and not extra, "location_ok": loc, "named": named}
+    true_fams = [e["family"] for e in truth["effects"]]
+    ok_fam, ok_loc = [], []
+    for e in truth["effects"]:
+        hits = [f for f in report["findings"] if e["family"] in [f["effect"], *f["alternatives"]]]
+        ok_fam.append(bool(hits))
+        ok_loc.append(any(e["where"] in [f["where"], *f["alternative_places"]] for f in hits))
+    extra = [f["effect"] for f in report["findings"] if not {f["effect"], *f["alternatives"]} & set(true_fams)]
+    return {"family_ok": all(ok_fam) and not extra, "location_ok": all(ok_loc), "named": named, "extra": extra}
 
 
 def blind_case(case: dict) -> dict:
     """One case (in any sweep worker): make the recordings, run the doctor on the CSVs, judge."""
-    seed, fam = case["seed"], case["family"]
+    seed, fams = case["seed"], case["families"]
     with tempfile.TemporaryDirectory(prefix="blind_jetpipe_") as work:
-        truth = make_case(Path(work), seed, fam, seconds=case["seconds"], heldout_seconds=case["heldout_seconds"])
+        truth = make_case(Path(work), seed, fams or None, seconds=case["seconds"], heldout_seconds=case["heldout_seconds"])
         t0 = time.perf_counter()
         report = diagnose_jetpipe("jetpipe", [read_csv(truth["recordings"]["main"])],
                                   [read_csv(truth["recordings"]["heldout"])])
@@ -70,38 +87,48 @@ def blind_case(case: dict) -> dict:
     j = judge(truth, report)
     red = [1 - f["heldout_nrmse"]["after"] / f["heldout_nrmse"]["before"] for f in report["findings"]
            if f["heldout_nrmse"]["before"]]
-    return {"seed": seed, "family": fam or "none", "where": [e["where"] for e in truth["effects"]],
+    red_reg = [1 - f["heldout_nrmse_in_regime"]["after"] / f["heldout_nrmse_in_regime"]["before"]
+               for f in report["findings"] if f["heldout_nrmse_in_regime"]["before"]]
+    return {"seed": seed, "families": fams or ["none"], "where": [e["where"] for e in truth["effects"]],
             "truth": truth["effects"], "verdict": report["verdict"], "named": j["named"],
-            "findings": [{k: f[k] for k in ("effect", "where", "parameters", "alternatives", "alternative_places")}
-                         for f in report["findings"]],
-            "family_ok": j["family_ok"], "location_ok": j["location_ok"], "nrmse_reduction": red, "seconds": secs,
+            "findings": [{k: f[k] for k in ("effect", "where", "parameters", "alternatives", "alternative_places",
+                                            "regime", "inclusion_probability")} for f in report["findings"]],
+            "family_ok": j["family_ok"], "location_ok": j["location_ok"], "nrmse_reduction": red,
+            "nrmse_reduction_in_regime": red_reg, "seconds": secs,
             "min_r2_nominal": min(truth["r2_nominal_heldout"].values()),
             "unexplained": [u["where"] for u in report["unexplained"]]}
 
 
 def run(ctx):
     cases, seconds, held_s = plan(ctx.fast)
-    results = sweep(blind_case, [{"seed": s, "family": f, "seconds": seconds, "heldout_seconds": held_s}
+    results = sweep(blind_case, [{"seed": s, "families": f, "seconds": seconds, "heldout_seconds": held_s}
                                  for s, f in cases], out=ctx.out / "sweep", **options_from_env())
     raise_on_failure(results, "doctor_blind_benchmark_jetpipe")
     rows = [r.result for r in results]
     for r in rows:
-        print(f"  case {r['seed']} {r['family']}: named {r['named'] or ['nothing']}"
+        print(f"  case {r['seed']} {'+'.join(r['families'])}: named {r['named'] or ['nothing']}"
               f"{' + unexplained' if r['unexplained'] else ''} ({r['seconds']:.0f} s)")
     atomic_write_json(ctx.out / "cases.json", rows)
-    effect_rows = [r for r in rows if r["family"] != "none"]
-    null_rows = [r for r in rows if r["family"] == "none"]
+    effect_rows = [r for r in rows if r["families"] != ["none"]]
+    null_rows = [r for r in rows if r["families"] == ["none"]]
+    two_rows = [r for r in effect_rows if len(r["families"]) > 1]
     fam_ok = [r for r in effect_rows if r["family_ok"]]
+    incl = [f["inclusion_probability"] for r in rows for f in r["findings"]]
     reductions = [x for r in effect_rows for x in r["nrmse_reduction"]]
+    reductions_reg = [x for r in effect_rows for x in r["nrmse_reduction_in_regime"]]
     _confusion(rows, ctx)
     return {
         "cases": len(rows),
         "effect_accuracy": len(fam_ok) / max(len(effect_rows), 1),
+        "two_effect_cases": len(two_rows),
+        **({"two_effect_accuracy": sum(r["family_ok"] for r in two_rows) / len(two_rows)} if two_rows else {}),
         "location_accuracy": sum(r["location_ok"] for r in fam_ok) / max(len(fam_ok), 1),
         "median_heldout_nrmse_reduction": float(np.median(reductions)) if reductions else 0.0,
+        "median_heldout_nrmse_reduction_in_regime": float(np.median(reductions_reg)) if reductions_reg else 0.0,
         "null_false_discovery_rate": sum(r["verdict"] != "no_significant_mismatch" for r in null_rows) / max(len(null_rows), 1),
         "seconds_per_case": float(np.mean([r["seconds"] for r in rows])),
         "concealed_fraction": float(np.mean([r["min_r2_nominal"] >= 0.9 for r in effect_rows])) if effect_rows else 1.0,
+        "median_inclusion_probability": float(np.median(incl)) if incl else float("nan"),
     }
 
 
@@ -110,11 +137,20 @@ def _confusion(rows, ctx):
     cols = fams + ["unexplained"]
     mat = np.zeros((len(fams), len(cols)))
     for r in rows:
-        # a finding that lists the hidden family as a not-separable alternative counts for it
-        named = [r["family"] if r["family"] in [f["effect"], *f["alternatives"]] else f["effect"] for f in r["findings"]]
+        # a finding that lists a hidden family as a not-separable alternative counts for it; each
+        # hidden family gets its own name when the doctor said it, the names left over are shared
+        # among the hidden families that were not matched (as doctor_blind_benchmark.py does);
+        # when every hidden family was matched, extra names are shown in their rows too
+        named = [next((t for t in r["families"] if t in [f["effect"], *f["alternatives"]]), f["effect"])
+                 for f in r["findings"]]
         named = named or (["unexplained"] if r["unexplained"] else ["none"])
-        for n in named:
-            mat[fams.index(r["family"]), cols.index(n)] += 1 / len(named)
+        extra = [n for n in named if n not in r["families"]]
+        missed = [t for t in r["families"] if t not in named]
+        for t in r["families"]:
+            if t in named:
+                mat[fams.index(t), cols.index(t)] += 1
+            for n in (extra or ["none"]) if t in missed else ([] if missed else extra):
+                mat[fams.index(t), cols.index(n)] += 1 / len(extra or ["none"]) if t in missed else 1 / len(r["families"])
     fig, ax = plt.subplots(figsize=(8, 6.5))
     ax.imshow(mat, cmap="Blues")
     ax.set_xticks(range(len(cols)), cols, rotation=60, ha="right", fontsize=8)
@@ -126,7 +162,8 @@ def _confusion(rows, ctx):
                         ha="center", va="center", fontsize=8, color="white" if mat[i, k] > 0.5 * mat.max() else "black")
     ax.set_xlabel("named by the doctor")
     ax.set_ylabel("hidden in the recording")
-    ax.set_title("jet-pipe doctor blind benchmark: confusion matrix")
+    ax.set_title("jet-pipe doctor blind benchmark: confusion matrix\n(an extra finding beside a right one counts in its row too)",
+                 fontsize=10)
     fig.tight_layout()
     ctx.savefig(fig, "confusion_matrix.png")
 
