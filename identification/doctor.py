@@ -52,10 +52,11 @@ UNEXPLAINED_RATIO = 1.6    # a chamber's held-out RMS over the chambers' median
 TRAIN_RATIO = 1.3          # ... and its training RMS over the chambers' median
 MAX_ROUNDS = 3
 MAX_FITS = 2             # full fits per round (the score test ranks well)
-#: End-stop hypotheses (hypotheses.end_stop_hypotheses) are off: on trial cases they found
-#: none of the hidden bumpers (the arm touches one only in a few impacts) and once named an
-#: angle-sensor offset an end stop.  Switch on to try them on your data.
-END_STOP_HYPOTHESES = False
+#: End-stop hypotheses (hypotheses.end_stop_hypotheses).  Their stiffness is bounded below by
+#: hypotheses.END_STOP_MIN_STIFFNESS_NM_PER_RAD: without the bound a weak "stop" spring had stood
+#: in for an angle-sensor offset (case 1026).  With it they name the bumpers of unconcealed
+#: end-stop recordings and nothing on the null and angle-offset cases (README, "End stops").
+END_STOP_HYPOTHESES = True
 
 
 @dataclass
@@ -320,6 +321,9 @@ def _accept(candidates: list, keep: float) -> Finding | None:
             # a parameter it needs is not significant (or stuck at a bound, where least squares
             # gives no error bar: then the gain came from the calibration refitted with it)
             continue
+        lower = np.array([p[2] for p in best.hyp.params])
+        if np.any((lower > 0) & (values <= lower * (1 + 1e-6))):
+            continue  # held at its least physical value (an end stop softer than a stop)
         # parsimony: a candidate with fewer parameters at the same place that explains nearly
         # as much wins (stiction = Coulomb + breakaway is preferred only if it pays clearly)
         richer = best

@@ -156,6 +156,15 @@ def _stop_regs(exp, j, stop, side):
     return out
 
 
+#: the least stiffness an end stop may have [N m/rad].  A stop holds the joint: arm2's cylinders
+#: give at most 5.7 N m (shoulder: 6 bar over a 20 mm bore on a 30 mm arm) and 3.0 N m (elbow),
+#: which a 20 N m/rad bumper lets in by 0.29 and 0.15 rad, already a soft one (the stops of the
+#: simulator, a 5 ms MuJoCo soft limit, are fitted at 170-300 N m/rad).  A fit that wants less
+#: is a weak spring standing in for something else (an angle offset made case 1026 fit 1.4
+#: N m/rad), so the fit is bounded here and a stiffness stuck at the bound is rejected.
+END_STOP_MIN_STIFFNESS_NM_PER_RAD = 20.0
+
+
 def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
     """An end stop (bumper) inside the model's joint range: a one-sided spring-damper torque
     -k (q - q_stop) - b qd past q_stop (Hunt & Crossley 1975 without the power law).  The
@@ -182,7 +191,8 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
             stderr = max(float(np.ptp(inside)) / 2, float(np.abs(np.diff(qs)).mean()) / 2)
             stop = float(qs[k])
             out.append(Hypothesis(
-                "end_stop", {"joint": name}, "mechanical", [("stiffness_nm_per_rad", 0.0, 0.0, np.inf, 0.0),
+                "end_stop", {"joint": name}, "mechanical", [("stiffness_nm_per_rad", END_STOP_MIN_STIFFNESS_NM_PER_RAD,
+                                                             END_STOP_MIN_STIFFNESS_NM_PER_RAD, np.inf, 0.0),
                                                             ("damping_nm_s_per_rad", 0.0, 0.0, np.inf, 0.0)], joint=j,
                 regressor=lambda e, td_, j=j, stop=stop, side=side: _stop_regs(e, j, stop, side),
                 fixed={"stop_rad": {"value": stop, "stderr": stderr}, "side_sign": {"value": float(side), "stderr": 0.0}}))

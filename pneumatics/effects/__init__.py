@@ -16,7 +16,7 @@ and the mismatch finder tests the same physics as hypotheses
 | line_dynamics | tube between valve and chamber: transport delay + its volume | spool delay, dead volume | yes (delay) |
 | pressure_sensor_offset, angle_sensor_offset | additive sensor offsets | observations | yes (pressure and torque balance) |
 | supply_droop | supply pressure falls with the total supply flow | kernel | yes |
-| end_stop | a bumper inside the joint range: one-sided spring past the stop | MuJoCo soft joint limit | off by default (`doctor.END_STOP_HYPOTHESES`) |
+| end_stop | a bumper inside the joint range: one-sided spring past the stop | MuJoCo soft joint limit | yes (stiffness >= 20 N m/rad; not concealable, so outside the blind benchmark) |
 | external_leak (bench) | laminar leak through the pores of a printed chamber (`external_leak.py`) | bench_chamber | bench doctor |
 | heat_transfer | gas temperature as a state, energy equation with h A (T_wall - T) (`heat_transfer.py`, R&H 2000 eq. 11) | per chamber, stepped in Python (~1 ms/step) | yes (T observed from the measured pressures, `identification/thermal.py`); bench doctor |
 | force_sensor_offset | load-cell offset; seal friction per direction and its growth with pressure (`seal_friction.py`) | bench_cylinder | bench doctor |
