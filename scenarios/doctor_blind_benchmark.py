@@ -29,6 +29,7 @@ from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
+from ._benchmark import common_metrics, print_cases
 from ._cases import BENCHMARK_FAMILIES, make_case
 from .common import main, plt
 
@@ -112,25 +113,15 @@ def run(ctx):
                                  for seed, fams in cases], out=ctx.out / "sweep", **options_from_env())
     raise_on_failure(results, "doctor_blind_benchmark")
     rows = [r.result for r in results]
-    for r in rows:
-        print(f"  case {r['seed']} {r['families']}: named {r['named'] or ['nothing']}"
-              f"{' + unexplained' if r['unexplained'] else ''} ({r['seconds']:.0f} s)")
+    print_cases(rows)
     atomic_write_json(ctx.out / "cases.json", rows)
-    effect_rows = [r for r in rows if r["families"] != ["none"]]
-    null_rows = [r for r in rows if r["families"] == ["none"]]
-    fam_ok = [r for r in effect_rows if r["family_ok"]]
-    reductions = [x for r in effect_rows for x in r["nrmse_reduction"]]
     _confusion(rows, ctx)
+    effect_rows = [r for r in rows if r["families"] != ["none"]]
+    fam_ok = [r for r in effect_rows if r["family_ok"]]
     return {
-        "cases": len(rows),
-        "effect_accuracy": len(fam_ok) / max(len(effect_rows), 1),
+        **common_metrics(rows, "min_r2_calibrated"),
         "effect_accuracy_strict": sum(r["family_ok_strict"] for r in effect_rows) / max(len(effect_rows), 1),
-        "location_accuracy": sum(r["location_ok"] for r in fam_ok) / max(len(fam_ok), 1),
         "location_accuracy_strict": sum(r.get("location_ok_strict", r["location_ok"]) for r in fam_ok) / max(len(fam_ok), 1),
-        "median_heldout_nrmse_reduction": float(np.median(reductions)) if reductions else 0.0,
-        "null_false_discovery_rate": sum(r["verdict"] != "no_significant_mismatch" for r in null_rows) / max(len(null_rows), 1),
-        "seconds_per_case": float(np.mean([r["seconds"] for r in rows])),
-        "concealed_fraction": float(np.mean([r["min_r2_calibrated"] >= 0.9 for r in effect_rows])) if effect_rows else 1.0,
     }
 
 

@@ -31,6 +31,7 @@ from pneumatics.io import atomic_write_json
 from pneumatics.recording import read_csv
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
+from ._benchmark import common_metrics, print_cases
 from ._jetpipe_cases import FAMILIES, make_case
 from .common import main, plt
 
@@ -105,29 +106,15 @@ def run(ctx):
                                  for s, f in cases], out=ctx.out / "sweep", **options_from_env())
     raise_on_failure(results, "doctor_blind_benchmark_jetpipe")
     rows = [r.result for r in results]
-    for r in rows:
-        print(f"  case {r['seed']} {'+'.join(r['families'])}: named {r['named'] or ['nothing']}"
-              f"{' + unexplained' if r['unexplained'] else ''} ({r['seconds']:.0f} s)")
+    print_cases(rows)
     atomic_write_json(ctx.out / "cases.json", rows)
-    effect_rows = [r for r in rows if r["families"] != ["none"]]
-    null_rows = [r for r in rows if r["families"] == ["none"]]
-    two_rows = [r for r in effect_rows if len(r["families"]) > 1]
-    fam_ok = [r for r in effect_rows if r["family_ok"]]
-    incl = [f["inclusion_probability"] for r in rows for f in r["findings"]]
-    reductions = [x for r in effect_rows for x in r["nrmse_reduction"]]
-    reductions_reg = [x for r in effect_rows for x in r["nrmse_reduction_in_regime"]]
     _confusion(rows, ctx)
+    effect_rows = [r for r in rows if r["families"] != ["none"]]
+    incl = [f["inclusion_probability"] for r in rows for f in r["findings"]]
+    reductions_reg = [x for r in effect_rows for x in r["nrmse_reduction_in_regime"]]
     return {
-        "cases": len(rows),
-        "effect_accuracy": len(fam_ok) / max(len(effect_rows), 1),
-        "two_effect_cases": len(two_rows),
-        **({"two_effect_accuracy": sum(r["family_ok"] for r in two_rows) / len(two_rows)} if two_rows else {}),
-        "location_accuracy": sum(r["location_ok"] for r in fam_ok) / max(len(fam_ok), 1),
-        "median_heldout_nrmse_reduction": float(np.median(reductions)) if reductions else 0.0,
+        **common_metrics(rows, "min_r2_nominal"),
         "median_heldout_nrmse_reduction_in_regime": float(np.median(reductions_reg)) if reductions_reg else 0.0,
-        "null_false_discovery_rate": sum(r["verdict"] != "no_significant_mismatch" for r in null_rows) / max(len(null_rows), 1),
-        "seconds_per_case": float(np.mean([r["seconds"] for r in rows])),
-        "concealed_fraction": float(np.mean([r["min_r2_nominal"] >= 0.9 for r in effect_rows])) if effect_rows else 1.0,
         "median_inclusion_probability": float(np.median(incl)) if incl else float("nan"),
     }
 

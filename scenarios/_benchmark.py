@@ -1,0 +1,34 @@
+"""What the blind benchmarks (arm2 and jet-pipe) share: the case lines they print and the
+metrics of the issue, from one row per case (``families``: the hidden families or ["none"];
+``family_ok``, ``location_ok``, ``verdict``, ``nrmse_reduction``, ``seconds``, ``unexplained``)."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def print_cases(rows: list[dict]) -> None:
+    for r in rows:
+        print(f"  case {r['seed']} {'+'.join(r['families'])}: named {r['named'] or ['nothing']}"
+              f"{' + unexplained' if r['unexplained'] else ''} ({r['seconds']:.0f} s)")
+
+
+def common_metrics(rows: list[dict], min_r2_key: str) -> dict:
+    """effect_accuracy (all hidden families named, no other), two_effect_accuracy, location_accuracy
+    (among cases with the families right), median_heldout_nrmse_reduction (finding's channel),
+    null_false_discovery_rate, seconds_per_case, concealed_fraction (``min_r2_key`` >= 0.9)."""
+    effect_rows = [r for r in rows if r["families"] != ["none"]]
+    null_rows = [r for r in rows if r["families"] == ["none"]]
+    two_rows = [r for r in effect_rows if len(r["families"]) > 1]
+    fam_ok = [r for r in effect_rows if r["family_ok"]]
+    reductions = [x for r in effect_rows for x in r["nrmse_reduction"]]
+    return {
+        "cases": len(rows),
+        "effect_accuracy": len(fam_ok) / max(len(effect_rows), 1),
+        "two_effect_cases": len(two_rows),
+        **({"two_effect_accuracy": sum(r["family_ok"] for r in two_rows) / len(two_rows)} if two_rows else {}),
+        "location_accuracy": sum(r["location_ok"] for r in fam_ok) / max(len(fam_ok), 1),
+        "median_heldout_nrmse_reduction": float(np.median(reductions)) if reductions else 0.0,
+        "null_false_discovery_rate": sum(r["verdict"] != "no_significant_mismatch" for r in null_rows) / max(len(null_rows), 1),
+        "seconds_per_case": float(np.mean([r["seconds"] for r in rows])),
+        "concealed_fraction": float(np.mean([r[min_r2_key] >= 0.9 for r in effect_rows])) if effect_rows else 1.0,
+    }
