@@ -1,6 +1,6 @@
 """Compiled twin of :meth:`identification.pneumatic.ChamberModel.step_reference`: one 1 ms step
 of paper 002 eq. 9 for a batch (W, C) of chamber sets, with the doctor's pneumatic hypotheses
-(valve leak near null, external and piston leaks, calibration scales, supply droop).
+(valve leak near null, external and piston leaks, calibration scales, supply droop, heat transfer).
 
 The doctor replays a recording hundreds of times (calibration, every hypothesis, the held-out
 scores); in numpy each step costs ~4 ms of small-array calls, most of the doctor's time.  This
@@ -79,9 +79,52 @@ def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ps, glob, f, jac, m_s):
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _flows_thermal(q, T, a_s, a_e, ps, extra, glob):
+    """pneumatics.effects.heat_transfer.chamber_flows for one chamber: (mdot, sum T_j mdot_j, its d/dp)."""
+    room, t_ref = glob[9], glob[2]
+    ms, _, dms = _orifice(a_s, ps, q, glob)
+    me, dme, _ = _orifice(a_e, q, room, glob)
+    scale = math.sqrt(t_ref / T)
+    mdot, h, dh = 0.0, 0.0, 0.0
+    for m, dm in ((ms, dms), (-me, -dme), (extra, 0.0)):
+        if m < 0.0:
+            mdot += m * scale
+            h += T * m * scale
+            dh += T * dm * scale
+        else:
+            mdot += m
+            h += t_ref * m
+            dh += t_ref * dm
+    return mdot, h, dh
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _thermal(p, T, vol, vdot, a_s, a_e, ps, hA, extra, glob):
+    """pneumatics.effects.heat_transfer.thermal_step for one chamber: (p, T) after dt."""
+    R, k, t_ref, dt = glob[0], glob[1], glob[2], glob[10]
+    heat = (k - 1.0) * hA * (t_ref - T)
+    _, h0, dh0 = _flows_thermal(p, T, a_s, a_e, ps, extra, glob)
+    f0 = (k * R * h0 - k * p * vdot + heat) / vol
+    denom = 1.0 - GAMMA * dt * (k * R * dh0 - k * vdot) / vol
+    k1 = f0 / denom
+    _, h1, _ = _flows_thermal(p + dt * k1, T, a_s, a_e, ps, extra, glob)
+    f1 = (k * R * h1 - k * (p + dt * k1) * vdot + heat) / vol
+    k2 = (f1 - 2.0 * k1) / denom
+    p_new = p + 1.5 * dt * k1 + 0.5 * dt * k2
+    mdot, _, _ = _flows_thermal(0.5 * (p + p_new), T, a_s, a_e, ps, extra, glob)
+    m0 = p * (vol - 0.5 * dt * vdot) / (R * T)
+    m1 = max(m0 + dt * mdot, 1e-3 * m0)
+    return p_new, p_new * (vol + 0.5 * dt * vdot) / (R * m1)
+
+
+@numba.njit(cache=True, error_model="numpy")
 def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_leak_m2, leak_width_v,
-               external_leak_m2, piston_leak_m2, dead_m3, area_m2, m_supply, glob, out):
-    """One linearly implicit ROS2 step (chamber.integrate's stages, fixed dt) for every window."""
+               external_leak_m2, piston_leak_m2, dead_m3, area_m2, m_supply, glob, out, heat_w_k, T):
+    """One linearly implicit ROS2 step (chamber.integrate's stages, fixed dt) for every window.
+
+    Chambers with a finite ``heat_w_k`` (C,) [W/K] carry their gas temperature ``T`` (W, C) [K]
+    (updated in place) and follow the energy equation instead (heat_transfer), the leaks held
+    over the step at their start-of-step flows, as in ChamberModel._thermal_step."""
     W, C = p.shape
     dt, droop = glob[10], glob[12]
     a_s, a_e = np.empty(C), np.empty(C)
@@ -108,3 +151,14 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
             out[w, c] = q if (math.isfinite(q) and q > 0.0) else p[w, c]
             total += max(m_s[c], 0.0)
         m_supply[w] = total
+        for c in range(C):
+            if not math.isfinite(heat_w_k[c]):
+                continue
+            extra = 0.0
+            if external_leak_m2[c] > 0.0:
+                extra -= _orifice(external_leak_m2[c], p[w, c], glob[9], glob)[0]
+            j = c // 2
+            if piston_leak_m2[j] > 0.0:
+                mab = _orifice(piston_leak_m2[j], p[w, 2 * j], p[w, 2 * j + 1], glob)[0]
+                extra += -mab if c == 2 * j else mab
+            out[w, c], T[w, c] = _thermal(p[w, c], T[w, c], vol[c], vdot[c], a_s[c], a_e[c], ps, heat_w_k[c], extra, glob)

@@ -116,7 +116,7 @@ class ChamberModel:
         # heat_transfer: these chambers carry a gas temperature T (W, C) [K]; set T before stepping
         self.thermal = np.array([], int) if mods.heat_w_k is None else np.nonzero(np.isfinite(mods.heat_w_k))[0]
         self.T = np.full((batch, tab.n_chambers), self.gas.temperature_k)
-        self._kernel_args = None if self.thermal.size else self._pack_kernel()
+        self._kernel_args = self._pack_kernel()
 
     def _pack_kernel(self):
         """Arguments of the compiled step (identification.chamber_kernel) for these mods."""
@@ -130,7 +130,8 @@ class ChamberModel:
         glob = pack_glob(self.gas, tab.supply_pa, tab.room_pa, FINE_DT, float(mods.supply_droop_pa_per_kg_s))
         return (np.array(tab.valve, float), per(mods.supply_scale), per(mods.exhaust_scale),
                 per(mods.valve_leak_m2), float(mods.valve_leak_width_v), per(mods.external_leak_m2),
-                per(mods.piston_leak_m2, C // 2), per(self.dead), per(tab.area), np.zeros(self.W), glob)
+                per(mods.piston_leak_m2, C // 2), per(self.dead), per(tab.area), np.zeros(self.W), glob,
+                np.full(C, np.nan) if mods.heat_w_k is None else per(mods.heat_w_k))
 
     def travel(self, length):
         """Chamber travel (W, C) from actuator lengths (W, n_act)."""
@@ -142,19 +143,20 @@ class ChamberModel:
     def step(self, p, u, travel0, travel1):
         """p (W, C) -> p after one FINE_DT step with commands u (W, C) and travels at its ends.
 
-        Compiled (identification.chamber_kernel) unless a chamber carries a gas temperature
-        (heat_transfer), which only the numpy reference :meth:`step_reference` models."""
-        if self._kernel_args is None:
-            return self.step_reference(p, u, travel0, travel1)
-        rows, ss, es, vl, vw, xl, pl, dead, area, m_sup, glob = self._kernel_args
+        Compiled (identification.chamber_kernel); :meth:`step_reference` is its numpy twin.
+        Chambers with heat_transfer update their gas temperatures ``self.T`` (W, C) [K]."""
+        rows, ss, es, vl, vw, xl, pl, dead, area, m_sup, glob, heat = self._kernel_args
         out = np.empty_like(p)
+        W = p.shape[0]
+        T = np.ascontiguousarray(self.T[:W], float)
         step_batch(np.ascontiguousarray(p, float), np.ascontiguousarray(u, float), np.ascontiguousarray(travel0, float),
                    np.ascontiguousarray(travel1, float), rows, ss, es, vl, vw, xl, pl, dead, area,
-                   m_sup[: p.shape[0]], glob, out)
+                   m_sup[:W], glob, out, heat, T)
+        self.T[:W] = T
         return out
 
     def step_reference(self, p, u, travel0, travel1):
-        """The numpy reference of :meth:`step` (and the only path with heat_transfer)."""
+        """The numpy reference of :meth:`step`."""
         tab, mods, gas = self.tab, self.mods, self.gas
         W, C = p.shape
         a_s, a_e = valve_areas(u.ravel(), self.rows[: W * C])

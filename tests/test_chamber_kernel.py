@@ -28,6 +28,9 @@ EFFECTS = {
     "piston_leak": {"piston_leak_m2": np.array([2e-8, 4e-8])},
     "supply_droop": {"supply_droop_pa_per_kg_s": 3e7},
     "line_volume": {"extra_volume_m3": np.array([0.0, 2e-6, 1e-6, 0.0])},
+    "heat_transfer": {"heat_w_k": np.array([0.2, np.nan, 0.05, 0.3])},
+    "heat_transfer_with_leaks": {"heat_w_k": np.array([0.2, 0.1, np.nan, np.nan]), "piston_leak_m2": np.array([3e-8, 0.0]),
+                                 "external_leak_m2": np.array([2e-8, 0.0, 0.0, 0.0]), "supply_droop_pa_per_kg_s": 3e7},
 }
 
 
@@ -39,12 +42,14 @@ def _mods(name):
 @settings(max_examples=25, deadline=None)
 @given(st.sampled_from(sorted(EFFECTS)), st.integers(0, 2**32 - 1))
 def test_compiled_step_matches_the_numpy_reference(effect, seed):
-    """Random pressures (room to supply), commands (0-10 V) and piston motions (up to 0.5 m/s):
-    three successive steps agree to 1e-10 relative (the droop carries the supply flow over)."""
+    """Random pressures (room to supply), gas temperatures (250-350 K), commands (0-10 V) and
+    piston motions (up to 0.5 m/s): three successive steps agree to 1e-10 relative, pressures
+    and temperatures (the droop carries the supply flow over)."""
     rng = np.random.default_rng(seed)
     tab = ROBOT.tables
     a, b = ChamberModel(ROBOT, _mods(effect), W), ChamberModel(ROBOT, _mods(effect), W)
-    assert a._kernel_args is not None
+    a.T = rng.uniform(250.0, 350.0, (W, C))
+    b.T = a.T.copy()
     p_a = p_b = rng.uniform(tab.room_pa, tab.supply_pa, (W, C))
     x = rng.uniform(0.0, 0.07, (W, C))
     for _ in range(3):
@@ -52,6 +57,7 @@ def test_compiled_step_matches_the_numpy_reference(effect, seed):
         x1 = np.clip(x + rng.uniform(-5e-4, 5e-4, (W, C)), 0.0, 0.07)
         p_a, p_b = a.step(p_a, u, x, x1), b.step_reference(p_b, u, x, x1)
         np.testing.assert_allclose(p_a, p_b, rtol=1e-10)
+        np.testing.assert_allclose(a.T, b.T, rtol=1e-10)
         x = x1
     assert np.all(np.isfinite(p_a)) and np.all(p_a > 0)
 
@@ -63,7 +69,7 @@ def experiment():
     return prepare(ROBOT, read_csv(BLIND / "case_8e12431d.csv").slice(0.0, 4.0))
 
 
-@pytest.mark.parametrize("effect", ["nominal", "valve_leak", "piston_leak", "supply_droop"])
+@pytest.mark.parametrize("effect", ["nominal", "valve_leak", "piston_leak", "supply_droop", "heat_transfer_with_leaks"])
 def test_compiled_replay_matches_the_numpy_replay(experiment, effect, monkeypatch):
     """A whole pressure replay (1 s windows over 4 s of a published recording) through the compiled step
     equals the numpy reference's to 1e-9 relative."""
