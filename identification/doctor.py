@@ -27,7 +27,7 @@ from .data import Experiment, pool, prepare, split
 from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses
 from .mechanics import fit_rigid_body, torque_data
 from .pneumatic import PneumaticMods, Windows, replay
-from .regimes import chamber_regimes, joint_regimes, ljung_box, locate_regime, windows
+from .regimes import chamber_regimes, input_xcorr, joint_regimes, ljung_box, ljung_box_p, locate_regime, windows
 from .replay import MechMods, coupled_replay
 from .screening import (
     Scored,
@@ -232,7 +232,9 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     rms_c = np.sqrt(np.mean(res_h ** 2, axis=(0, 1)))
     pred_t, meas_t = replay(exp, win, mods)
     rms_t = np.sqrt(np.mean((pred_t - meas_t) ** 2, axis=(0, 1)))
-    base_rms = chamber_rms(held, win_h, mods_without_all(mods, findings))
+    pred_b, _ = replay(held, win_h, mods_without_all(mods, findings))
+    res_base_h = pred_b - meas_h                          # (W, H, C) before the findings
+    base_rms = np.sqrt(np.mean(res_base_h ** 2, axis=(0, 1)))
     floor_h, floor_t = np.median(base_rms), np.median(rms_t)
     explained = {c for f in findings for c in f.scored.hyp.chambers}
     for c, (a, ch) in enumerate(robot.chamber_names):
@@ -288,6 +290,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             "parameters_at_bounds": cfit.at_bound + rfit.at_bound,
             "ljung_box_q_heldout_pressure": {f"p_{ch}.{a}": ljung_box(res_h[:, :, c].ravel())
                                              for c, (a, ch) in enumerate(robot.chamber_names)},
+            **_residual_tests(robot, held, win_h, res_h, res_base_h),
             "train_seconds": float(exp.t[-1] - exp.t[0]),
             "heldout_seconds": float(held.t[-1] - held.t[0]),
             "train_sources": [r.source for r in recordings],
@@ -297,6 +300,26 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     }
     report["_replays"] = {"nominal": nominal_replay, "baseline": base_replay, "final": final_replay}
     return report
+
+
+def _residual_tests(robot, held, win_h, res_after, res_before) -> dict:
+    """Ljung's tests of the held-out pressure residuals (W, H, C) before and after the findings:
+    whiteness (Ljung-Box Q over lags 1-20 with its chi-square tail probability) and the
+    cross-correlation with the chamber's own valve command at lags 0-50 ms (Ljung 1999 §16.6).
+    Windows are 1 s restarts, so each window is one trace; reported, not used to decide."""
+    idx = win_h.starts[:, None] + 1 + np.arange(win_h.horizon)[None]         # (W, H)
+    dt = float(np.median(np.diff(held.t)))
+    lb, xc = {}, {}
+    for c, (a, ch) in enumerate(robot.chamber_names):
+        key = f"p_{ch}.{a}"
+        u = [held.u[i, c] for i in idx]
+        lb[key], xc[key] = {}, {}
+        for when, res in (("before", res_before), ("after", res_after)):
+            q = ljung_box(res[:, :, c].ravel())
+            lb[key][when] = {"q": q, "p": ljung_box_p(q)}
+            xc[key][when] = input_xcorr(list(res[:, :, c]), u, dt)
+    return {"ljung_box_heldout_pressure": lb,
+            "input_xcorr_heldout_pressure": {"input": "the chamber's valve command", **xc}}
 
 
 def _corrected(exp: Experiment, offset_pa: np.ndarray) -> Experiment:

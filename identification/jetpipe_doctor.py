@@ -46,9 +46,9 @@ from pneumatics.recording import Recording
 from . import lsq
 from .doctor import _bootstrap_inclusion
 from .jetpipe_data import HOLDOUT, load_traces
-from .jetpipe_regimes import LB_LAGS, concentrate, features, input_xcorr, ljung_box_p
+from .jetpipe_regimes import concentrate, features
 from .jetpipe_replay import RESTART_S, measured, replay
-from .regimes import ljung_box
+from .regimes import LB_LAGS, input_xcorr, ljung_box, ljung_box_p
 
 KEEP = 0.20          # held-out reduction of J an effect must bring to be named
 MIN_DJ = 1.0         # ... and at least one noise variance (J is in noise variances summed over the

@@ -9,8 +9,12 @@ of the samples.
 from __future__ import annotations
 
 import numpy as np
+from scipy.stats import chi2
 
 from .data import Experiment
+
+LB_LAGS = 20        # Ljung-Box lags (samples)
+XCORR_S = 0.05      # input cross-correlation: lags 0 .. 50 ms
 
 
 def joint_regimes(exp: Experiment, j: int) -> dict:
@@ -118,3 +122,36 @@ def ljung_box(residual: np.ndarray, lags: int = 20) -> float:
         rho = float(r[k:] @ r[:-k]) / denom
         q += rho ** 2 / (n - k)
     return float(n * (n + 2) * q)
+
+
+def ljung_box_p(q: float, lags: int = LB_LAGS) -> float:
+    """Chi-square(lags) tail probability of a Ljung-Box Q (small = the residual is not white)."""
+    return float(chi2.sf(q, lags))
+
+
+def input_xcorr(residuals: list, inputs: list, dt_s: float, max_lag_s: float = XCORR_S) -> dict:
+    """Ljung's input cross-correlation test: rho(tau) = sum r(t) u(t - tau) / sqrt(sum r^2 sum u^2)
+    over the traces (means removed per trace), tau = 0 .. ``max_lag_s``.
+
+    ``residuals``, ``inputs``: lists of (N_k,) arrays. Returns {"max_abs": max |rho|, "lag_ms",
+    "bound": 1.96 / sqrt(N) (white residual independent of the input, 95 %), "s": N sum rho^2,
+    "p": chi-square(L+1) tail probability of s}."""
+    lags = max(1, round(max_lag_s / dt_s))
+    num = np.zeros(lags + 1)
+    rr = uu = 0.0
+    n = 0
+    for r, u in zip(residuals, inputs):
+        r = r - r.mean()
+        u = u - u.mean()
+        rr += float(r @ r)
+        uu += float(u @ u)
+        n += r.size
+        for tau in range(min(lags + 1, r.size)):
+            num[tau] += float(r[tau:] @ u[: r.size - tau])
+    if rr <= 0 or uu <= 0 or n == 0:
+        return {"max_abs": 0.0, "lag_ms": 0.0, "bound": float("nan"), "s": 0.0, "p": 1.0}
+    rho = num / np.sqrt(rr * uu)
+    k = int(np.argmax(np.abs(rho)))
+    s = float(n * np.sum(rho ** 2))
+    return {"max_abs": float(abs(rho[k])), "lag_ms": float(1e3 * k * dt_s), "bound": float(1.96 / np.sqrt(n)),
+            "s": s, "p": float(chi2.sf(s, lags + 1))}

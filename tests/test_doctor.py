@@ -38,6 +38,15 @@ def test_lugre_friction_on_the_shoulder_is_named_coulomb_friction(tmp_path):
     on_disk = json.loads((tmp_path / "report.json").read_text())
     assert KEYS <= set(on_disk) and on_disk["findings"][0]["effect"] == "coulomb_friction"
     assert (tmp_path / "report.md").read_text().startswith("# pneumasim doctor report")
+    # Ljung's residual tests, before and after, per pressure channel
+    d = on_disk["diagnostics"]
+    assert set(d["ljung_box_heldout_pressure"]) == set(d["input_xcorr_heldout_pressure"]) - {"input"} == \
+        {f"p_{c}.{a}" for a in ("shoulder", "elbow") for c in "ab"}
+    for k, v in d["ljung_box_heldout_pressure"].items():
+        assert v["after"]["q"] > 0 and 0 <= v["after"]["p"] <= 1
+        x = d["input_xcorr_heldout_pressure"][k]["after"]
+        assert 0 <= x["max_abs"] <= 1 and 0 < x["bound"] < 0.1 and 0 <= x["lag_ms"] <= 50
+    assert "Residual tests (Ljung)" in (tmp_path / "report.md").read_text()
     subprocess.run([sys.executable, "-m", "rerun", "rrd", "verify", str(tmp_path / "doctor.rrd")], check=True,
                    capture_output=True)
 
