@@ -181,7 +181,7 @@ def _markdown(report, pngs) -> str:
                   "with the chamber's valve command at lags 0-50 ms (|ρ| under the bound: uncorrelated). "
                   "Reported, not used to decide: restarted replays leave even an exact model's residual "
                   "slightly coloured, and the commands are coloured.", "",
-                  "| channel | Ljung-Box Q | max \|ρ\| with the command | bound |", "| --- | --- | --- | --- |"]
+                  "| channel | Ljung-Box Q | max \\|ρ\\| with the command | bound |", "| --- | --- | --- | --- |"]
         for k, v in d["ljung_box_heldout_pressure"].items():
             b, a = xc[k]["before"], xc[k]["after"]
             lines.append(f"| {k} | {v['before']['q']:.0f} → {v['after']['q']:.0f} | "
