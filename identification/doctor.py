@@ -55,7 +55,7 @@ MAX_FITS = 2             # full fits per round (the score test ranks well)
 #: End-stop hypotheses (hypotheses.end_stop_hypotheses).  Their stiffness is bounded below by
 #: hypotheses.END_STOP_MIN_STIFFNESS_NM_PER_RAD: without the bound a weak "stop" spring had stood
 #: in for an angle-sensor offset (case 1026).  With it they name the bumpers of unconcealed
-#: end-stop recordings and nothing on the null and angle-offset cases (README, "End stops").
+#: end-stop recordings and nothing on the null and angle-offset cases (tests/test_doctor_new_effects.py).
 END_STOP_HYPOTHESES = True
 
 
@@ -306,7 +306,8 @@ def _residual_tests(robot, held, win_h, res_after, res_before) -> dict:
     """Ljung's tests of the held-out pressure residuals (W, H, C) before and after the findings:
     whiteness (Ljung-Box Q over lags 1-20 with its chi-square tail probability) and the
     cross-correlation with the chamber's own valve command at lags 0-50 ms (Ljung 1999 §16.6).
-    Windows are 1 s restarts, so each window is one trace; reported, not used to decide."""
+    Each replay window (a restart from the measured pressures) is one trace; reported, not used
+    to decide (the integrated error of a restarted replay is coloured even for an exact model)."""
     idx = win_h.starts[:, None] + 1 + np.arange(win_h.horizon)[None]         # (W, H)
     dt = float(np.median(np.diff(held.t)))
     lb, xc = {}, {}
