@@ -174,10 +174,12 @@ def _noise_floor(res: dict) -> dict:
     return out
 
 
-def _nrmse(prob, traces, dev, fx, channel) -> float:
-    r = prob.residuals(traces, dev, fx)[channel]
-    meas = np.concatenate([measured(t)[channel][t.scored] for t in traces])
-    return float(np.sqrt(np.mean(r ** 2)) / max(np.std(meas), 1e-300))
+def _nrmse(traces, res: list[dict], channel, mask=None) -> float:
+    """NRMSE of ``channel`` over the scored samples (those of them in ``mask``), from per-trace
+    residuals (:func:`_sample_residuals`), normalised by the measured channel's s.d."""
+    r = _scored(traces, [x[channel] for x in res])
+    meas = _scored(traces, [measured(t)[channel] for t in traces])
+    return float(np.sqrt(np.mean((r if mask is None else r[mask]) ** 2)) / max(np.std(meas), 1e-300))
 
 
 def _windows(prob, traces, dev, fx_before, fx_after, channel, width_s=1.0):
@@ -328,14 +330,16 @@ def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Rec
         value, se = joint.values[0] * best.unit, joint.stderr[0] * best.unit
         if 1.0 - j_new / j_now < KEEP or j_now - j_new < MIN_DJ or abs(value) < MIN_T * se:
             break
-        _, per_old = prob.score(held, dev, fx)
+        # res_now holds the residuals of (dev, fx): the model before this finding
+        per_old = {c: float(np.mean(_scored(held, [r[c] for r in res_now]) ** 2) / prob.sigma[c] ** 2)
+                   for c in prob.channels}
         ch = max(prob.channels, key=lambda c: per_old[c] - per_new[c])
-        before, after = _nrmse(prob, held, dev, fx, ch), _nrmse(prob, held, joint.values[1:], fx_new, ch)
+        res_new = _sample_residuals(prob, held, joint.values[1:], fx_new)
+        before, after = _nrmse(held, res_now, ch), _nrmse(held, res_new, ch)
         gain = j_now - j_new
         alts = [(h, j) for j, h, *_ in joint_scored[1:] if gain > 0 and (j_now - j) >= ALIKE * gain]
         # where the held-out improvement lies, and how sure: block bootstrap of the keep rule
         # (relative cut >= KEEP and absolute cut >= MIN_DJ, the latter as a share of J before)
-        res_new = _sample_residuals(prob, held, joint.values[1:], fx_new)
         w_before, w_after = _weighted(prob, res_now), _weighted(prob, res_new)
         inclusion = _bootstrap_inclusion(_block_sums(held, w_before, block_s), _block_sums(held, w_after, block_s),
                                          max(KEEP, MIN_DJ / j_now))
@@ -346,9 +350,7 @@ def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Rec
         if where_reg["feature"] is not None:
             x, (lo, hi) = feats[where_reg["feature"]], where_reg["bin"]
             in_reg = (x >= lo) & (x <= hi)
-        scale = max(float(np.std(_scored(held, [measured(t)[ch] for t in held]))), 1e-300)
-        nrmse_in = {k: float(np.sqrt(np.mean(_scored(held, [r[ch] for r in rs])[in_reg] ** 2)) / scale)
-                    for k, rs in (("before", res_now), ("after", res_new))}
+        nrmse_in = {"before": _nrmse(held, res_now, ch, in_reg), "after": _nrmse(held, res_new, ch, in_reg)}
         regime_plots.append({"title": f"{best.effect} at {' '.join(map(str, best.where.values()))}",
                              "feature": where_reg["feature"], "feats": feats, "before": _scored(held, w_before),
                              "after": _scored(held, w_after)})
@@ -402,13 +404,14 @@ def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Rec
     for (name, sec, fields), d in zip(CALIBRATION, dev):
         nominal = getattr(getattr(cfg0, sec), fields[0])
         cal_out[name] = float(nominal * (1.0 + d))
-    base_nrmse = {c: _nrmse(prob, held, dev_base, none, c) for c in prob.channels}  # before any finding
+    base_nrmse = {c: _nrmse(held, res_base, c) for c in prob.channels}  # before any finding
+    res_nominal = _sample_residuals(prob, held, zero, none)
     lb_before, xc_before = _residual_tests(prob, held, res_base)
     lb_after, xc_after = _residual_tests(prob, held, res_now)
     return {
         "model": model, "verdict": verdict, "verdict_detail": detail, "isolable": isolable,
         "baseline": {"heldout_nrmse": base_nrmse, "heldout_r2": {c: 1.0 - v ** 2 for c, v in base_nrmse.items()},
-                     "heldout_nrmse_nominal": {c: _nrmse(prob, held, zero, none, c) for c in prob.channels}},
+                     "heldout_nrmse_nominal": {c: _nrmse(held, res_nominal, c) for c in prob.channels}},
         "calibrated": cal_out,
         "calibration_change": {c[0]: {"relative": float(d), "stderr": float(s)}
                                for c, d, s in zip(CALIBRATION, dev, cal.stderr)},
