@@ -35,6 +35,7 @@ from .screening import (
     fit_pneumatic,
     score_mechanical,
     score_pneumatic,
+    stack_terms,
     torque_rms,
 )
 
@@ -150,7 +151,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     refine = [h for h in mechanical_hypotheses(robot) if h.family == "pressure_sensor_offset"
               and any(f.family == "pressure_sensor_offset" and f.where == h.where for f in findings)]
     for h in refine:
-        base_extra = _with_terms(base_extra, h, exp, td)
+        base_extra = stack_terms(base_extra, h.regressor(exp, td), h)
         kept_mech.append(h)
         extra_terms += [(None, h.joint)]
     for rnd in range(MAX_ROUNDS):
@@ -179,7 +180,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         tried.update(s.hyp.label for s in scored if s.hyp.family == best.hyp.family
                      and s.hyp.where.get("actuator") == best.hyp.where.get("actuator") and "chamber" in s.hyp.where)
         tried.add(best.hyp.label)
-        base_extra = _with_terms(base_extra, best.hyp, exp, td)
+        base_extra = stack_terms(base_extra, best.hyp.regressor(exp, td), best.hyp)
         kept_mech.append(best.hyp)
         extra_terms += [(_mech_attr(name), best.hyp.joint) for name, *_ in best.hyp.params]
     final_rfit = fit_rigid_body(td, *base_extra) if base_extra else rfit
@@ -271,6 +272,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         ch = max(_channels(f, robot), key=lambda c: nb[c] - nf[c])
         f.nrmse = {"before": nb[ch], "after": nf[ch], "channel": ch}
         f.evidence = _evidence(f)
+    tests = _residual_tests(robot, held, win_h, res_h, res_base_h)
     report = {
         "model": robot.name,
         "verdict": "missing_physics" if findings or unexplained else "no_significant_mismatch",
@@ -288,9 +290,8 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             "calibration_condition": cfit.condition,
             "rigid_body_condition": rfit.condition,
             "parameters_at_bounds": cfit.at_bound + rfit.at_bound,
-            "ljung_box_q_heldout_pressure": {f"p_{ch}.{a}": ljung_box(res_h[:, :, c].ravel())
-                                             for c, (a, ch) in enumerate(robot.chamber_names)},
-            **_residual_tests(robot, held, win_h, res_h, res_base_h),
+            **tests,
+            "ljung_box_q_heldout_pressure": {k: v["after"]["q"] for k, v in tests["ljung_box_heldout_pressure"].items()},
             "train_seconds": float(exp.t[-1] - exp.t[0]),
             "heldout_seconds": float(held.t[-1] - held.t[0]),
             "train_sources": [r.source for r in recordings],
@@ -362,18 +363,6 @@ def _accept(candidates: list, keep: float) -> Finding | None:
             alts.append(richer.hyp.family)
         return Finding(best, best.hyp.family, best.hyp.where, _params(best), best.heldout_gain, alts)
     return None
-
-
-def _with_terms(base_extra, hyp, exp, td):
-    """The torque balance's extra regressors (reg (N, J, E), names, (lo, hi)) with hyp's added."""
-    reg = hyp.regressor(exp, td)
-    names = [p[0] for p in hyp.params]
-    lo = np.array([p[2] for p in hyp.params])
-    hi = np.array([p[3] for p in hyp.params])
-    if base_extra is None:
-        return reg, names, (lo, hi)
-    return (np.concatenate([base_extra[0], reg], axis=2), base_extra[1] + names,
-            (np.concatenate([base_extra[2][0], lo]), np.concatenate([base_extra[2][1], hi])))
 
 
 def _regs(hyps, exp, td):

@@ -171,22 +171,19 @@ def _markdown(report, pngs) -> str:
     lines += ["", "## Diagnostics", "",
               f"- pressure noise floor (from the data): {d['pressure_noise_pa']:.0f} Pa",
               f"- condition numbers (scaled J^T J): chambers {d['calibration_condition']:.3g}, rigid body {d['rigid_body_condition']:.3g}",
-              f"- parameters at their bounds: {', '.join(d['parameters_at_bounds']) or 'none'}",
-              "- Ljung-Box Q (lags 1-20) of the held-out pressure residuals: " +
-              ", ".join(f"{k} {v:.0f}" for k, v in d["ljung_box_q_heldout_pressure"].items()), ""]
-    if "ljung_box_heldout_pressure" in d:
-        xc = d["input_xcorr_heldout_pressure"]
-        lines += ["Residual tests (Ljung) on the held-out pressure replays, before → after the findings: "
-                  "whiteness (Ljung-Box Q, lags 1-20; χ²(20) 95 % point 31) and the largest cross-correlation "
-                  "with the chamber's valve command at lags 0-50 ms (|ρ| under the bound: uncorrelated). "
-                  "Reported, not used to decide: restarted replays leave even an exact model's residual "
-                  "slightly coloured, and the commands are coloured.", "",
-                  "| channel | Ljung-Box Q | max \\|ρ\\| with the command | bound |", "| --- | --- | --- | --- |"]
-        for k, v in d["ljung_box_heldout_pressure"].items():
-            b, a = xc[k]["before"], xc[k]["after"]
-            lines.append(f"| {k} | {v['before']['q']:.0f} → {v['after']['q']:.0f} | "
-                         f"{b['max_abs']:.3f} → {a['max_abs']:.3f} (lag {a['lag_ms']:.0f} ms) | {a['bound']:.3f} |")
-        lines.append("")
+              f"- parameters at their bounds: {', '.join(d['parameters_at_bounds']) or 'none'}", ""]
+    xc = d["input_xcorr_heldout_pressure"]
+    lines += ["Residual tests (Ljung) on the held-out pressure replays, before → after the findings: "
+              "whiteness (Ljung-Box Q, lags 1-20; χ²(20) 95 % point 31) and the largest cross-correlation "
+              "with the chamber's valve command at lags 0-50 ms (|ρ| under the bound: uncorrelated). "
+              "Reported, not used to decide: restarted replays leave even an exact model's residual "
+              "slightly coloured, and the commands are coloured.", "",
+              "| channel | Ljung-Box Q | max \\|ρ\\| with the command | bound |", "| --- | --- | --- | --- |"]
+    for k, v in d["ljung_box_heldout_pressure"].items():
+        b, a = xc[k]["before"], xc[k]["after"]
+        lines.append(f"| {k} | {v['before']['q']:.0f} → {v['after']['q']:.0f} | "
+                     f"{b['max_abs']:.3f} → {a['max_abs']:.3f} (lag {a['lag_ms']:.0f} ms) | {a['bound']:.3f} |")
+    lines.append("")
     for p in pngs:
         lines.append(f"![{p}]({p})")
     return "\n".join(lines) + "\n"

@@ -106,14 +106,16 @@ def score_mechanical(td, exp, hyps, base_extra=None):
     out = []
     for h in hyps:
         reg = h.regressor(exp, td)
-        extra, names, bounds = _stack(base_extra, reg, h)
+        extra, names, bounds = stack_terms(base_extra, reg, h)
         f = fit_rigid_body(td, extra, names, bounds)
         gain = 1.0 - f.rss / max(base.rss, 1e-300)
         out.append(Scored(h, gain, fit=f))
     return out, base
 
 
-def _stack(base_extra, reg, h):
+def stack_terms(base_extra, reg, h):
+    """The torque balance's extra regressors (reg (N, J, E), names, (lo, hi)), h's regressors
+    ``reg`` and its parameters' names and bounds appended (``base_extra`` None: h's alone)."""
     names = [p[0] for p in h.params]
     lo = np.array([p[2] for p in h.params])
     hi = np.array([p[3] for p in h.params])
