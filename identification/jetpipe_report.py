@@ -53,13 +53,14 @@ def write(report: dict, out: str | Path, plots: bool = True, rerun: bool = True)
     ctx = report.pop("_plot", None)
     atomic_write_json(out / "report.json", _jsonable(report))
     pngs = []
-    if ctx is not None:
+    if ctx is not None and (plots or rerun):
+        runs = _replays(report, ctx)  # the held-out replays, shared by the plot and the .rrd
         if plots:
-            pngs = [_plot_fit(report, ctx, out)]
+            pngs = [_plot_fit(report, ctx, runs[0], out)]
             if ctx.get("regimes"):
                 pngs.append(_plot_regimes(ctx["regimes"], out))
         if rerun:
-            _rrd(report, ctx, out)
+            _rrd(report, ctx, runs, out)
         report["_plot"] = ctx
     atomic_write_text(out / "report.md", _markdown(report, pngs))
     return out / "report.json"
@@ -74,7 +75,7 @@ def _replays(report, ctx):
     return [(tr, measured(tr), replay(tr, cfg, type(fx)()), replay(tr, cfg, fx)) for tr in held]
 
 
-def _rrd(report, ctx, out: Path):
+def _rrd(report, ctx, runs, out: Path):
     """doctor.rrd: held-out measured / nominal (calibrated, no findings) / corrected traces,
     under ``measured/``, ``nominal/``, ``corrected/`` (``.../heldout<k>/`` with several files)."""
     from pneumatics.jetpipe.sim import JetpipeSim, build
@@ -82,7 +83,6 @@ def _rrd(report, ctx, out: Path):
 
     prob = ctx["problem"]
     robot = JetpipeSim(build(prob.cfg0)).rerun_robot()
-    runs = _replays(report, ctx)
 
     def save(tmp):
         logger = RerunLogger(robot, path=tmp, recording_name=f"doctor {report['model']}: held-out data")
@@ -97,10 +97,11 @@ def _rrd(report, ctx, out: Path):
     atomic_save(out / "doctor.rrd", save)
 
 
-def _plot_fit(report, ctx, out: Path) -> str:
+def _plot_fit(report, ctx, run, out: Path) -> str:
+    """``run``: (trace, measured, calibrated without findings, with findings) of one held-out trace."""
     plt = _plt()
     prob = ctx["problem"]
-    tr, meas, before, after = _replays(report, ctx)[0]
+    tr, meas, before, after = run
     win = report["findings"][0]["windows"][0] if report["findings"] and report["findings"][0]["windows"] else \
         [float(tr.time[0]), float(tr.time[0]) + 1.0]
     m = (tr.time >= win[0]) & (tr.time <= win[1])
