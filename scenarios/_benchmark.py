@@ -6,6 +6,24 @@ from __future__ import annotations
 import numpy as np
 
 
+def judge(effects: list[dict], report: dict, same=lambda named, hidden: named == hidden, strict: bool = False) -> dict:
+    """One case's answer against its hidden ``effects`` ([{"family", "where"}]): every hidden
+    family named (``same``), a not-separable alternative counting, and no finding of a family
+    that was not hidden (family_ok); every hidden effect at a place a hit names (location_ok; a
+    place listed as not separable counts unless ``strict``, which also takes ``same`` strictly)."""
+    true_fams = [e["family"] for e in effects]
+    ok_fam, ok_loc = [], []
+    for e in effects:
+        hits = [f for f in report["findings"] if any(same(n, e["family"]) for n in [f["effect"], *f.get("alternatives", [])])]
+        ok_fam.append(bool(hits))
+        places = [[f["where"]] if strict else [f["where"], *f.get("alternative_places", [])] for f in hits]
+        ok_loc.append(any(e["where"] in p for p in places))
+    extra = [f["effect"] for f in report["findings"]
+             if not any(same(n, t) for n in [f["effect"], *f.get("alternatives", [])] for t in true_fams)]
+    return {"family_ok": all(ok_fam) and not extra, "location_ok": all(ok_loc), "extra": extra,
+            "named": [f["effect"] for f in report["findings"]]}
+
+
 def print_cases(rows: list[dict]) -> None:
     for r in rows:
         print(f"  case {r['seed']} {'+'.join(r['families'])}: named {r['named'] or ['nothing']}"

@@ -30,6 +30,7 @@ from pneumatics.robot import load_robot
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
 from ._benchmark import common_metrics, print_cases
+from ._benchmark import judge as judge_effects
 from ._cases import BENCHMARK_FAMILIES, make_case
 from .common import main, plt
 
@@ -66,21 +67,7 @@ def _same(a: str, b: str, strict: bool) -> bool:
 
 
 def judge(truth: dict, report: dict, strict: bool = False) -> dict:
-    true_fams = [e["family"] for e in truth["effects"]]
-    ok_fam, ok_loc = [], []
-    for e in truth["effects"]:
-        hits = [f for f in report["findings"] if any(_same(n, e["family"], strict)
-                                                     for n in [f["effect"], *f.get("alternatives", [])])]
-        ok_fam.append(bool(hits))
-        # a place the doctor states it cannot tell from another (e.g. a pressure offset on
-        # chamber a or b of one cylinder, both listed) counts, as alternative families do;
-        # location_accuracy_strict counts only the single place named
-        places = [[f["where"]] if strict else [f["where"], *f.get("alternative_places", [])] for f in hits]
-        ok_loc.append(any(e["where"] in p for p in places))
-    extra = [f["effect"] for f in report["findings"]
-             if not any(_same(n, t, strict) for n in [f["effect"], *f.get("alternatives", [])] for t in true_fams)]
-    return {"family_ok": all(ok_fam) and not extra, "location_ok": all(ok_loc), "extra": extra,
-            "named": [f["effect"] for f in report["findings"]]}
+    return judge_effects(truth["effects"], report, lambda a, b: _same(a, b, strict), strict)
 
 
 def blind_case(case: dict) -> dict:

@@ -32,6 +32,7 @@ from pneumatics.recording import read_csv
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
 from ._benchmark import common_metrics, print_cases
+from ._benchmark import judge as judge_effects
 from ._jetpipe_cases import FAMILIES, make_case
 from .common import main, plt
 
@@ -65,14 +66,7 @@ def judge(truth: dict, report: dict) -> dict:
     named = [f["effect"] for f in report["findings"]]
     if not truth["effects"]:
         return {"family_ok": not report["findings"] and not report["unexplained"], "location_ok": True, "named": named}
-    true_fams = [e["family"] for e in truth["effects"]]
-    ok_fam, ok_loc = [], []
-    for e in truth["effects"]:
-        hits = [f for f in report["findings"] if e["family"] in [f["effect"], *f["alternatives"]]]
-        ok_fam.append(bool(hits))
-        ok_loc.append(any(e["where"] in [f["where"], *f["alternative_places"]] for f in hits))
-    extra = [f["effect"] for f in report["findings"] if not {f["effect"], *f["alternatives"]} & set(true_fams)]
-    return {"family_ok": all(ok_fam) and not extra, "location_ok": all(ok_loc), "named": named, "extra": extra}
+    return judge_effects(truth["effects"], report)
 
 
 def blind_case(case: dict) -> dict:
