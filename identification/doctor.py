@@ -22,12 +22,25 @@ import numpy as np
 
 from pneumatics.robot import Robot
 
+from .calibrate import chamber_names as calibration_names
 from .calibrate import fit_chambers, pressure_sigma
 from .data import Experiment, pool, prepare, split
-from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses
+from .hypotheses import (
+    mechanical_hypotheses,
+    pneumatic_hypotheses,
+    smooth_torque_yardstick,
+)
 from .mechanics import fit_rigid_body, torque_data
 from .pneumatic import PneumaticMods, Windows, replay
-from .regimes import chamber_regimes, input_xcorr, joint_regimes, ljung_box, ljung_box_p, locate_regime, windows
+from .regimes import (
+    chamber_regimes,
+    input_xcorr,
+    joint_regimes,
+    ljung_box,
+    ljung_box_p,
+    locate_regime,
+    windows,
+)
 from .replay import MechMods, coupled_replay
 from .screening import (
     Scored,
@@ -47,12 +60,21 @@ MECH_BLOCK_S = 0.1         # ... of its 0.1 s means: the equation error's broadb
                            # differentiating noisy angles twice, a missing torque lives at the
                            # motion's frequencies (< 5 Hz; a 0.1 s boxcar's first null is at 10 Hz)
 MIN_T = 4.0                # |value| / stderr of a kept parameter
+YARDSTICK_SHARE = 0.5      # a mechanical effect must remove at least this share of what a smooth
+                           # torque of its joint's state removes (hypotheses.smooth_torque_yardstick):
+                           # seen >= 0.97 for every true friction, offset and end stop tried, 0.29 for
+                           # an angle offset standing in for a joint spring outside the library
 ISOLABLE = 0.8             # another family within this fraction of the best's gain: not isolable
 PARSIMONY = 0.03           # held-out gain a richer hypothesis must add over a simpler one at its place
 UNEXPLAINED_RATIO = 1.6    # a chamber's held-out RMS over the chambers' median
 TRAIN_RATIO = 1.3          # ... and its training RMS over the chambers' median
 MAX_ROUNDS = 3
-MAX_FITS = 2             # full fits per round (the score test ranks well)
+MIN_FITS = 2               # full fits per round: the score test's best two always ...
+MAX_FITS = 4               # ... and up to this many when their predicted gains are close:
+FIT_WITHIN = 1 / 3         # within this fraction of the best's.  The score test is linear at a
+                           # calibration that may have absorbed part of the effect, so its
+                           # ranking is rough: on case 1019 a piston leak (held-out gain 0.99
+                           # once fitted) ranked 4th at 0.48 of the best's predicted gain
 #: End-stop hypotheses (hypotheses.end_stop_hypotheses).  Their stiffness is bounded below by
 #: hypotheses.END_STOP_MIN_STIFFNESS_NM_PER_RAD: without the bound a weak "stop" spring had stood
 #: in for an angle-sensor offset (case 1026).  With it they name the bumpers of unconcealed
@@ -108,7 +130,6 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     rfit = fit_rigid_body(td)
     calibrated = {n: float(np.exp(v)) for n, v in zip(cfit.names, cfit.values)}
     calibrated.update({n: float(1 + v) for n, v in zip(rfit.names, rfit.values)})
-    flags = [n for n, v in calibrated.items() if abs(np.log(v)) > np.log(1.1)]
 
     # -- 3-6. pneumatic hypotheses, greedy -------------------------------------------------
     findings: list[Finding] = []
@@ -118,7 +139,9 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         hyps = [h for h in pneumatic_hypotheses(robot) if h.label not in tried]
         scored, _ = score_pneumatic(exp, win, mods, hyps, sigma)
         scored.sort(key=lambda s: -s.predicted_gain)
-        top = [s for s in scored if s.predicted_gain >= MIN_PREDICTED][:MAX_FITS]
+        cands = [s for s in scored if s.predicted_gain >= MIN_PREDICTED]
+        top = [s for i, s in enumerate(cands)
+               if i < MIN_FITS or s.predicted_gain >= FIT_WITHIN * cands[0].predicted_gain][:MAX_FITS]
         if not top:
             break
         base_h = chamber_rms(held, win_h, mods)
@@ -144,6 +167,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     base_extra = None
     extra_terms = []
     kept_mech = []
+    outside = []   # (joint, the library's best, the yardstick's held-out gain): torque outside the library
     # pressure replays restarted from measured pressures see a constant offset only near the
     # supply and room asymptotes; the torque balance sees it everywhere as a force error.  Each
     # offset the replays found is refined there as a nuisance term of the base model, so what
@@ -167,12 +191,19 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         block = max(1, int(round(MECH_BLOCK_S * held.rate_hz)))
         base_h = torque_rms(td_h, base, None if base_extra is None else _regs(kept_mech, held, td_h), block)
         for s in scored:
-            ex = s.hyp.regressor(held, td_h)
-            full = ex if base_extra is None else np.concatenate([_regs(kept_mech, held, td_h), ex], axis=2)
-            s.heldout_before, s.heldout_after = base_h, torque_rms(td_h, s.fit, full, block)
+            _heldout_torque(s, held, td_h, kept_mech, base_extra, base_h, block)
         finding = _accept(scored, MECH_KEEP)
         if finding is None:
             break
+        j = finding.scored.hyp.joint
+        (yard,), _ = score_mechanical(td, exp, [smooth_torque_yardstick(robot, j)], base_extra)
+        _heldout_torque(yard, held, td_h, kept_mech, base_extra, base_h, block)
+        if finding.heldout_gain < YARDSTICK_SHARE * yard.heldout_gain:
+            # the library's best is a partial projection of a torque it does not hold: name
+            # nothing at this joint, report the residual as unexplained there
+            outside.append((j, finding, yard.heldout_gain))
+            tried.update(s.hyp.label for s in scored if s.hyp.joint == j)
+            continue
         if finding.family == "pressure_sensor_offset":
             finding = _offset_place(finding, scored)
         findings.append(finding)
@@ -198,6 +229,14 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
                     f.params["offset_pa"] = {"value": total, "stderr": float(se)}
         elif attr is None:
             mods = h_apply_offset(mods, hyp.chambers[0], float(v), robot.tables.n_chambers)
+
+    # the calibration as the findings' joint fits left it: an effect the first calibration had
+    # partly absorbed (a piston leak taken up by the valve areas) hands those scales back
+    names = calibration_names(robot)
+    final_cal = dict(zip(names, map(float, np.concatenate([mods.supply_scale, mods.exhaust_scale,
+                                                           mods.dead_volume_scale]))))
+    final_cal.update({n: float(1 + v) for n, v in zip(rfit.names, final_rfit.values[:len(rfit.names)])})
+    flags = [n for n, v in final_cal.items() if abs(np.log(v)) > np.log(1.1)]
 
     # -- locate: regimes and windows of each finding; unexplained residual ------------------
     _say(progress, "locating regimes and windows")
@@ -229,7 +268,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             nb_ = r.size // 100
             f.inclusion = _bootstrap_inclusion((r[: nb_ * 100] ** 2).reshape(nb_, 100).sum(1),
                                                (after[: nb_ * 100] ** 2).reshape(nb_, 100).sum(1), MECH_KEEP)
-    unexplained = []
+    unexplained = [_outside_torque(robot, held, td_h, rfit, j, f, gain) for j, f, gain in outside]
     rms_c = np.sqrt(np.mean(res_h ** 2, axis=(0, 1)))
     pred_t, meas_t = replay(exp, win, mods)
     rms_t = np.sqrt(np.mean((pred_t - meas_t) ** 2, axis=(0, 1)))
@@ -248,7 +287,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         r = res_h[:, :, c].ravel()
         reg = chamber_regimes(held, c)
         name, lift, share = locate_regime(r, {k: v[idx_h] for k, v in reg.items()})
-        unexplained.append({"where": {"actuator": a, "chamber": ch}, "regime": name,
+        unexplained.append({"where": {"actuator": a, "chamber": ch}, "regime": name, "residual": "pressure",
                             "share_of_residual": float(np.sum(res_h[:, :, c] ** 2) / np.sum(res_h ** 2)),
                             "windows": windows(t_h, r),
                             "rms_pa": float(rms_c[c]), "chambers_median_rms_pa": float(others),
@@ -279,6 +318,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         "baseline": {"heldout_nrmse": nb, "heldout_r2": base_replay.r2(),
                      "nominal_heldout_nrmse": nominal_replay.nrmse()},
         "calibrated": calibrated,
+        "calibrated_with_findings": final_cal,
         "findings": [_finding_json(f) for f in findings],
         "unexplained": unexplained,
         "after": {"heldout_nrmse": nf},
@@ -363,6 +403,30 @@ def _accept(candidates: list, keep: float) -> Finding | None:
             alts.append(richer.hyp.family)
         return Finding(best, best.hyp.family, best.hyp.where, _params(best), best.heldout_gain, alts)
     return None
+
+
+def _heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block):
+    """Held-out torque RMS per joint before (``base_h``) and after s's fit, in ``block`` means."""
+    ex = s.hyp.regressor(held, td_h)
+    full = ex if base_extra is None else np.concatenate([_regs(kept_mech, held, td_h), ex], axis=2)
+    s.heldout_before, s.heldout_after = base_h, torque_rms(td_h, s.fit, full, block)
+
+
+def _outside_torque(robot, held, td_h, rfit, j: int, best: Finding, yard_gain: float) -> dict:
+    """The unexplained entry of joint j, whose torque residual a smooth function of its state
+    takes up far better than the library's best effect (``best``)."""
+    r = td_h.residual[:, j] - np.einsum("np,p->n", td_h.regressors[:, j], rfit.values)
+    r = np.where(td_h.valid, r, 0.0)
+    # in 0.1 s means: the raw equation error is mostly noise from differentiating the angles twice
+    block = max(1, int(round(MECH_BLOCK_S * held.rate_hz)))
+    r = np.convolve(r, np.ones(block) / block, mode="same")
+    name, _, _ = locate_regime(r, joint_regimes(held, j))
+    return {"where": {"joint": robot.joint_names[j]}, "regime": name, "residual": "torque",
+            "share_of_residual": float(yard_gain), "windows": windows(held.t, r),
+            "evidence": f"a smooth torque of the joint's angle and velocity removes {100 * yard_gain:.0f} % of its "
+                        f"held-out torque residual, the library's best ({best.family}) only "
+                        f"{100 * best.heldout_gain:.0f} %: a torque the library does not hold (a spring, a hose "
+                        f"or cable pulling on the link, ...)"}
 
 
 def _regs(hyps, exp, td):

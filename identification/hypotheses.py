@@ -227,3 +227,19 @@ def mechanical_hypotheses(robot, exp=None, td=None) -> list[Hypothesis]:
                               [("offset_pa", 0.0, -5e4, 5e4, 0.0)], chambers=[c], joint=j,
                               regressor=lambda e, td, c=c: td.dtau_dp[:, :, c:c + 1]))
     return out
+
+
+def smooth_torque_yardstick(robot, j: int) -> Hypothesis:
+    """Not an effect: a smooth torque of joint j's own state — a constant, the angle and its
+    square, the Coulomb shape and the velocity — fitted by the same linear least squares.
+
+    It measures how much of the joint's torque residual *any* simple function of its state
+    would remove.  The library's mechanical effects are (near) special cases of it (a constant
+    force error, friction, an angle offset's gravity torque), so a true one removes about as
+    much as the yardstick; a torque the library does not hold (a spring, a hose pulling on the
+    link) is taken up by the yardstick and only projected, in part, onto a library effect."""
+    fns = [lambda e, td: np.ones(e.q.shape[0]), lambda e, td: e.q[:, j], lambda e, td: e.q[:, j] ** 2,
+           lambda e, td: coulomb_shape(e.qd[:, j]), lambda e, td: e.qd[:, j]]
+    names = ["constant_nm", "per_rad_nm", "per_rad2_nm", "coulomb_nm", "viscous_nm_s_per_rad"]
+    return Hypothesis("smooth_torque", {"joint": robot.joint_names[j]}, "mechanical",
+                      [(n, 0.0, -np.inf, np.inf, 0.0) for n in names], joint=j, regressor=_joint_regs(j, fns))

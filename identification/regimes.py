@@ -36,6 +36,9 @@ def joint_regimes(exp: Experiment, j: int) -> dict:
         "positive velocity": qd > 0,
         "negative velocity": qd < 0,
         "near the joint limits": (q < rng[0] + 0.1 * span) | (q > rng[1] - 0.1 * span),
+        # where a position-dependent torque (a spring, a hose, a gravity error) shows most
+        "upper third of the angles visited": q > np.percentile(q, 67),
+        "lower third of the angles visited": q < np.percentile(q, 33),
     }
 
 

@@ -1,12 +1,13 @@
 """The doctor on pneumasim-made concealed cases of the effects added last: heat transfer in a
-chamber, backlash at a joint, a tube (line dynamics) on a chamber, and end stops (unconcealed).  Each case is made, then
+chamber, backlash at a joint, a tube (line dynamics) on a chamber, end stops (unconcealed) and a
+piston leak the first calibration half-absorbed; and a joint spring, outside the library.  Each case is made, then
 diagnosed from its CSV files alone; slow (1-4 min each), so outside the default run."""
 import pytest
 
 from identification.doctor import diagnose
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
-from scenarios._cases import make_case
+from scenarios._cases import make_case, make_spring_case
 
 
 def _diagnose(tmp_path, seed, family, seconds=40.0):
@@ -45,3 +46,37 @@ def test_an_end_stop_the_arm_touches_is_named_at_its_angle(tmp_path, seed):
     stop = lo + intrusion if side.startswith("lower") else hi - intrusion
     assert abs(p["stop_rad"]["value"] - stop) < 0.02  # seen: 0.005 and 0.003 rad
     assert p["stiffness_nm_per_rad"]["value"] > 50  # a stop, not a spring (seen: 168, 298)
+
+
+@pytest.mark.slow
+def test_a_leak_the_calibration_half_absorbed_is_named_and_the_calibration_handed_back(tmp_path):
+    """Case 1019: a 9e-9 m^2 piston leak on the shoulder.  The first calibration takes part of
+    it into the valve areas and dead volumes (up to 17 % off), which ranks the piston leak only
+    4th by the score test; fitted, it wins, and the joint fit returns those scales to within
+    the generator's 3 % errors."""
+    truth = make_case(tmp_path, 1019, ["piston_leak"])
+    hidden = truth["effects"][0]
+    rep = diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
+                   [read_csv(truth["recordings"]["heldout"])])
+    assert [(f["effect"], f["where"]) for f in rep["findings"]] == [("piston_leak", hidden["where"])]
+    fitted = rep["findings"][0]["parameters"]["leak_area_m2"]["value"]
+    assert abs(fitted / hidden["parameters"]["piston_leak_m2"] - 1) < 0.1  # seen: 1 %
+    before = [v for k, v in rep["calibrated"].items() if "shoulder" in k and "area" in k]
+    after = [v for k, v in rep["calibrated_with_findings"].items() if "shoulder" in k and "area" in k]
+    assert max(abs(v - 1) for v in before) > 0.1  # seen: 0.825 .. 1.148
+    assert max(abs(v - 1) for v in after) < 0.05  # seen: 0.980 .. 1.018 (true factors within 3 %)
+
+
+@pytest.mark.slow
+def test_a_joint_spring_outside_the_library_is_unexplained_at_its_joint(tmp_path):
+    """A torsion spring on the shoulder (0.125 N m/rad after concealment, rest at 0.3 rad): an
+    angle offset takes up its preload (28 % of the held-out torque residual) but a smooth
+    torque of the joint's state takes up 96 %, so the doctor names nothing there and reports
+    the residual as unexplained at the shoulder, where the spring pulls hardest."""
+    truth = make_spring_case(tmp_path, 7, "shoulder", 1.0)
+    rep = diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
+                   [read_csv(truth["recordings"]["heldout"])])
+    assert not [f for f in rep["findings"] if f["where"].get("joint") == "shoulder"]
+    (u,) = [u for u in rep["unexplained"] if u["where"] == {"joint": "shoulder"}]
+    assert u["share_of_residual"] > 0.5  # seen: 0.96
+    assert u["regime"] == "lower third of the angles visited"  # furthest from the rest angle
