@@ -31,8 +31,9 @@ def pack_glob(gas, supply_pa: float, room_pa: float, dt: float, droop: float) ->
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _valve(u, row, scale_s, scale_e, leak, leak_width):
-    """pneumatics.valve.valve_areas for one command, scaled, plus the valve_leak hypothesis."""
+def _valve(u, row, scale_s, scale_e, leak_s, leak_e, leak_width):
+    """pneumatics.valve.valve_areas for one command, scaled, plus the valve_leak hypothesis
+    (extra supply-side and exhaust-side areas near null)."""
     null, half, f, width, dead, gam, a_s, a_e = row[0], row[1], row[2], row[3], row[4], row[5], row[6], row[7]
     s = min(max((u - null) / half, -1.0), 1.0)
     w = width / half
@@ -42,10 +43,10 @@ def _valve(u, row, scale_s, scale_e, leak, leak_width):
     ramp_e = max(0.0, (-s - d) / (1.0 - d)) ** gam
     out_s = a_s * (lk + (1.0 - f) * ramp_s) * scale_s
     out_e = a_e * (lk + (1.0 - f) * ramp_e) * scale_e
-    if leak > 0.0:
+    if leak_s > 0.0 or leak_e > 0.0:
         g = math.exp(-((u - null) / leak_width) ** 2)
-        out_s += leak * g
-        out_e += leak * g
+        out_s += leak_s * g
+        out_e += leak_e * g
     return out_s, out_e
 
 
@@ -118,7 +119,8 @@ def _thermal(p, T, vol, vdot, a_s, a_e, ps, hA, extra, glob):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_leak_m2, leak_width_v,
+def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2,
+               leak_width_v,
                external_leak_m2, piston_leak_m2, dead_m3, area_m2, m_supply, glob, out, heat_w_k, T):
     """One linearly implicit ROS2 step (chamber.integrate's stages, fixed dt) for every window.
 
@@ -135,7 +137,8 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
     for w in range(W):
         ps = glob[8] - droop * m_supply[w] if droop > 0.0 else glob[8]
         for c in range(C):
-            a_s[c], a_e[c] = _valve(u[w, c], rows[c], supply_scale[c], exhaust_scale[c], valve_leak_m2[c], leak_width_v)
+            a_s[c], a_e[c] = _valve(u[w, c], rows[c], supply_scale[c], exhaust_scale[c], valve_leak_m2[c],
+                                   valve_leak_exhaust_m2[c], leak_width_v)
             vol[c] = dead_m3[c] + area_m2[c] * 0.5 * (travel0[w, c] + travel1[w, c])
             vdot[c] = area_m2[c] * (travel1[w, c] - travel0[w, c]) / dt
         _rhs(p[w], vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, ps, glob, f0, jac, m_s)

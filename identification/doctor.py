@@ -140,8 +140,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         scored, _ = score_pneumatic(exp, win, mods, hyps, sigma)
         scored.sort(key=lambda s: -s.predicted_gain)
         cands = [s for s in scored if s.predicted_gain >= MIN_PREDICTED]
-        top = [s for i, s in enumerate(cands)
-               if i < MIN_FITS or s.predicted_gain >= FIT_WITHIN * cands[0].predicted_gain][:MAX_FITS]
+        top = _to_fit(cands)
         if not top:
             break
         base_h = chamber_rms(held, win_h, mods)
@@ -149,7 +148,14 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             _say(progress, f"fitting {s.hyp.label}")
             fit_pneumatic(s, exp, fit_win, mods, sigma)
             s.heldout_before, s.heldout_after = base_h, chamber_rms(held, win_h, s.mods)
-            s.heldout_null = chamber_rms(held, win_h, s.hyp.apply(s.mods, np.array([s.hyp.null_value])))
+            s.heldout_null = chamber_rms(held, win_h, s.hyp.apply(s.mods, s.hyp.null_vector()))
+        # ranked on one footing: the held-out residual of every chamber the candidates touch.
+        # Each one's own chambers would favour a flexible effect at one chamber over one that
+        # explains the cylinder's two (variant case 7005: a two-area valve leak on chamber b
+        # 0.88 of b's residual, a piston leak 0.85 of a's and b's)
+        union = sorted({c for s in top for c in s.channels})
+        for s in top:
+            s.rank_gain = 1.0 - np.sum(s.heldout_after[union] ** 2) / max(np.sum(s.heldout_before[union] ** 2), 1e-300)
         finding = _accept(top, PNEU_KEEP)
         if finding is None:
             break
@@ -371,13 +377,13 @@ def _corrected(exp: Experiment, offset_pa: np.ndarray) -> Experiment:
 
 
 def _accept(candidates: list, keep: float) -> Finding | None:
-    """The best candidate by held-out gain as a Finding, if it pays (gain >= keep and its
-    parameter >= MIN_T standard errors); families at the same place explaining nearly as much
-    are its isolability alternatives."""
-    candidates = sorted(candidates, key=lambda s: -s.heldout_gain)
+    """The best candidate by held-out gain (``rank_gain`` where set) as a Finding, if it pays
+    (gain on its own channels >= keep and its parameters >= MIN_T standard errors); families at
+    the same place explaining nearly as much are its isolability alternatives."""
+    candidates = sorted(candidates, key=lambda s: -(s.heldout_gain if s.rank_gain is None else s.rank_gain))
     for best in candidates:
         if best.heldout_gain < keep:
-            return None
+            continue
         if best.own_gain is not None and best.own_gain < 0.5 * keep:
             continue  # the refitted calibration paid, not the effect
         k = len(best.hyp.params)
@@ -403,6 +409,21 @@ def _accept(candidates: list, keep: float) -> Finding | None:
             alts.append(richer.hyp.family)
         return Finding(best, best.hyp.family, best.hyp.where, _params(best), best.heldout_gain, alts)
     return None
+
+
+def _to_fit(cands: list) -> list:
+    """The candidates (sorted by predicted gain) worth a full fit: the best MIN_FITS places and
+    families, and up to MAX_FITS when within FIT_WITHIN of the best's predicted gain.  The
+    forms of one family at one place (a valve leak alike on both lands or not) share a slot."""
+    labels, out = [], []
+    for s in cands:
+        new = s.hyp.label not in labels
+        if new and (len(labels) >= MAX_FITS or (len(labels) >= MIN_FITS
+                                                and s.predicted_gain < FIT_WITHIN * cands[0].predicted_gain)):
+            continue
+        labels += [s.hyp.label] if new else []
+        out.append(s)
+    return out
 
 
 def _heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block):
@@ -482,7 +503,7 @@ def _offset_place(finding: Finding, scored: list) -> Finding:
 def _without(mods: PneumaticMods, f: Finding) -> PneumaticMods:
     """The final chamber model without finding f's effect (its parameter set to the null value)."""
     h = f.scored.hyp
-    return h.apply(mods, np.array([h.null_value]))
+    return h.apply(mods, h.null_vector())
 
 
 def mods_without_all(mods, findings):

@@ -29,6 +29,10 @@ class Hypothesis:
     null_value: float = 0.0       # the parameter value that switches the effect off (apply(mods, [null]))
     adds_volume: float = 0.0      # a tube's volume adds to this nominal dead volume [m^3]: it may grow past the calibration bound
 
+    def null_vector(self) -> np.ndarray:
+        """Every parameter at the value that switches the effect off."""
+        return np.full(len(self.params), self.null_value)
+
     @property
     def label(self) -> str:
         w = self.where
@@ -42,6 +46,20 @@ def _set(field_name, c, n, value_transform=lambda v: v):
         arr = np.zeros(n) if arr is None else arr.copy()
         arr[c] = value_transform(x[0])
         return mods.copy(**{field_name: arr})
+    return apply
+
+
+def _valve_leak(c, n, asymmetric: bool):
+    """valve_leak at chamber c: x = [area] (both lands alike) or [supply area, exhaust area]."""
+    def apply(mods, x):
+        sup = np.zeros(n) if mods.valve_leak_m2 is None else mods.valve_leak_m2.copy()
+        exh = None if mods.valve_leak_exhaust_m2 is None else mods.valve_leak_exhaust_m2.copy()
+        sup[c] = x[0]
+        if asymmetric and exh is None:
+            exh = sup.copy()  # the other chambers' leaks stay symmetric
+        if exh is not None:
+            exh[c] = x[1] if asymmetric else x[0]
+        return mods.copy(valve_leak_m2=sup, valve_leak_exhaust_m2=exh)
     return apply
 
 
@@ -68,7 +86,13 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
         where = {"actuator": a, "chamber": ch}
         out += [
             Hypothesis("valve_leak", where, "pneumatic", [("leak_area_m2", 0.0, 0.0, 4e-7, 2e-8)], [c],
-                       apply=_set("valve_leak_m2", c, C)),
+                       apply=_valve_leak(c, C, asymmetric=False)),
+            # the lands underlapped unequally: the pressure the leak pulls the chamber towards
+            # moves (a laminar underlap balances near (p_s + p_room) / 2, the symmetric orifice
+            # leak near 5.3 bar on arm2); the symmetric one is preferred unless this pays clearly
+            Hypothesis("valve_leak", where, "pneumatic", [("supply_leak_area_m2", 0.0, 0.0, 4e-7, 2e-8),
+                                                          ("exhaust_leak_area_m2", 0.0, 0.0, 4e-7, 2e-8)], [c],
+                       apply=_valve_leak(c, C, asymmetric=True)),
             Hypothesis("external_leak", where, "pneumatic", [("leak_area_m2", 0.0, 0.0, 4e-7, 1e-8)], [c],
                        apply=_set("external_leak_m2", c, C)),
             Hypothesis("valve_hysteresis", where, "pneumatic", [("half_width_v", 0.0, 0.0, 2.0, 0.1)], [c],

@@ -33,6 +33,7 @@ class PneumaticMods:
     exhaust_scale: np.ndarray         # multiplies each valve's exhaust areas
     dead_volume_scale: np.ndarray     # multiplies each chamber's dead volume
     valve_leak_m2: np.ndarray = None          # extra area open both ways near null (valve_leak)
+    valve_leak_exhaust_m2: np.ndarray = None  # its exhaust-side area where it differs (None: the same)
     valve_leak_width_v: float = 0.6
     external_leak_m2: np.ndarray = None       # orifice from the chamber to the room
     piston_leak_m2: np.ndarray = None         # (n_act,) orifice between chambers a and b
@@ -48,6 +49,11 @@ class PneumaticMods:
     @classmethod
     def nominal(cls, n_ch: int) -> "PneumaticMods":
         return cls(np.ones(n_ch), np.ones(n_ch), np.ones(n_ch))
+
+    def valve_leak_exhaust(self):
+        """The valve_leak's exhaust-side extra area per chamber (C,) or None: its own where the
+        asymmetric hypothesis set one, else the supply side's (the symmetric leak)."""
+        return self.valve_leak_m2 if self.valve_leak_exhaust_m2 is None else self.valve_leak_exhaust_m2
 
     def copy(self, **changes) -> "PneumaticMods":
         import dataclasses
@@ -129,7 +135,8 @@ class ChamberModel:
 
         glob = pack_glob(self.gas, tab.supply_pa, tab.room_pa, FINE_DT, float(mods.supply_droop_pa_per_kg_s))
         return (np.array(tab.valve, float), per(mods.supply_scale), per(mods.exhaust_scale),
-                per(mods.valve_leak_m2), float(mods.valve_leak_width_v), per(mods.external_leak_m2),
+                per(mods.valve_leak_m2), per(mods.valve_leak_exhaust()), float(mods.valve_leak_width_v),
+                per(mods.external_leak_m2),
                 per(mods.piston_leak_m2, C // 2), per(self.dead), per(tab.area), np.zeros(self.W), glob,
                 np.full(C, np.nan) if mods.heat_w_k is None else per(mods.heat_w_k))
 
@@ -145,12 +152,12 @@ class ChamberModel:
 
         Compiled (identification.chamber_kernel); :meth:`step_reference` is its numpy twin.
         Chambers with heat_transfer update their gas temperatures ``self.T`` (W, C) [K]."""
-        rows, ss, es, vl, vw, xl, pl, dead, area, m_sup, glob, heat = self._kernel_args
+        rows, ss, es, vl, vle, vw, xl, pl, dead, area, m_sup, glob, heat = self._kernel_args
         out = np.empty_like(p)
         W = p.shape[0]
         T = np.ascontiguousarray(self.T[:W], float)
         step_batch(np.ascontiguousarray(p, float), np.ascontiguousarray(u, float), np.ascontiguousarray(travel0, float),
-                   np.ascontiguousarray(travel1, float), rows, ss, es, vl, vw, xl, pl, dead, area,
+                   np.ascontiguousarray(travel1, float), rows, ss, es, vl, vle, vw, xl, pl, dead, area,
                    m_sup[:W], glob, out, heat, T)
         self.T[:W] = T
         return out
@@ -162,10 +169,10 @@ class ChamberModel:
         a_s, a_e = valve_areas(u.ravel(), self.rows[: W * C])
         a_s = a_s.reshape(W, C) * mods.supply_scale
         a_e = a_e.reshape(W, C) * mods.exhaust_scale
-        if mods.valve_leak_m2 is not None:
+        if mods.valve_leak_m2 is not None or mods.valve_leak_exhaust_m2 is not None:
             g = np.exp(-((u - tab.valve[:, 0]) / mods.valve_leak_width_v) ** 2)
-            a_s = a_s + mods.valve_leak_m2 * g
-            a_e = a_e + mods.valve_leak_m2 * g
+            a_s = a_s + (0.0 if mods.valve_leak_m2 is None else mods.valve_leak_m2) * g
+            a_e = a_e + mods.valve_leak_exhaust() * g
         vol = self.dead + tab.area * 0.5 * (travel0 + travel1)
         vdot = tab.area * (travel1 - travel0) / FINE_DT
         droop = mods.supply_droop_pa_per_kg_s > 0

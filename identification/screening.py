@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import lsq_linear
 
 from .calibrate import fit_chambers
 from .mechanics import fit_rigid_body
@@ -26,6 +27,7 @@ class Scored:
     heldout_before: np.ndarray = None   # per-channel held-out RMS (chambers or joints)
     heldout_after: np.ndarray = None
     heldout_null: np.ndarray = None     # held-out RMS of the fitted model with the effect switched off
+    rank_gain: float | None = None      # held-out gain over the chambers of all candidates compared with it
 
     @property
     def own_gain(self) -> float | None:
@@ -60,17 +62,19 @@ def score_pneumatic(exp, win, mods, hyps, sigma):
     total = float(np.sum(r0 ** 2))
     out = []
     for h in hyps:
-        name, x0, lo, hi, probe = h.params[0]
-        m1 = h.apply(mods, np.array([x0 + probe]))
-        p1, _ = replay(exp, win, m1)
-        g = (p1 - pred) / sigma / probe
-        gg = float(np.sum(g ** 2))
-        if gg <= 0:
+        x0 = np.array([p[1] for p in h.params])
+        probe = np.array([p[4] for p in h.params])
+        # one probe replay per parameter: the residual's change per unit of each, G (n, k)
+        G = np.stack([((replay(exp, win, h.apply(mods, x0 + probe * np.eye(len(x0))[i]))[0] - pred) / sigma
+                       / probe[i]).ravel() for i in range(len(x0))], axis=1)
+        if not np.any(G):
             out.append(Scored(h, 0.0))
             continue
-        alpha = -float(np.sum(g * r0)) / gg
-        alpha = float(np.clip(alpha, lo - x0, hi - x0))
-        gain = (2 * -alpha * float(np.sum(g * r0)) - alpha ** 2 * gg) / total
+        # the best bounded step along them: linear least squares of -r0 on G
+        lo = np.array([p[2] for p in h.params]) - x0
+        hi = np.array([p[3] for p in h.params]) - x0
+        step = lsq_linear(G, -r0.ravel(), bounds=(lo, hi)).x
+        gain = (total - float(np.sum((r0.ravel() + G @ step) ** 2))) / total
         out.append(Scored(h, max(gain, 0.0)))
     return out, total
 
@@ -85,7 +89,7 @@ def fit_pneumatic(s: Scored, exp, win, mods, sigma):
     x0 = np.array([p[1] + p[4] for p in h.params]) / unit
     lo = np.array([p[2] for p in h.params]) / unit
     hi = np.array([p[3] for p in h.params]) / unit
-    extra = (names, x0, lo, hi, lambda m, z: h.apply(m, z * unit), [h.chambers])
+    extra = (names, x0, lo, hi, lambda m, z: h.apply(m, z * unit), [h.chambers] * len(names))
     wide = h.chambers if h.adds_volume else ()
     new_mods, fit = fit_chambers(exp, win, mods, sigma, extra=extra, wide_dead_volume=wide)
     k = len(names)

@@ -51,9 +51,11 @@ def _inputs(exp: Experiment, mods, chambers, u_fine: np.ndarray):
     a_s, a_e = valve_areas(u_fine[:, cs].ravel(), rows)
     a_s = a_s.reshape(F, -1) * mods.supply_scale[cs]
     a_e = a_e.reshape(F, -1) * mods.exhaust_scale[cs]
-    if mods.valve_leak_m2 is not None:
-        g = mods.valve_leak_m2[cs] * np.exp(-((u_fine[:, cs] - tab.valve[cs, 0]) / mods.valve_leak_width_v) ** 2)
-        a_s, a_e = a_s + g, a_e + g
+    if mods.valve_leak_m2 is not None or mods.valve_leak_exhaust_m2 is not None:
+        g = np.exp(-((u_fine[:, cs] - tab.valve[cs, 0]) / mods.valve_leak_width_v) ** 2)
+        if mods.valve_leak_m2 is not None:
+            a_s = a_s + mods.valve_leak_m2[cs] * g
+        a_e = a_e + mods.valve_leak_exhaust()[cs] * g
     m = orifice_flow(a_s, tab.supply_pa, p, gas)[0] - orifice_flow(a_e, p, tab.room_pa, gas)[0]
     if mods.external_leak_m2 is not None:
         m = m - orifice_flow(mods.external_leak_m2[cs], p, tab.room_pa, gas)[0]

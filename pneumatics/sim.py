@@ -102,6 +102,9 @@ class Simulation:
         self._lag_decay_half = np.where(self._lag > 0, np.exp(-0.5 * self.model.opt.timestep
                                                               / np.maximum(self._lag, 1e-300)), 0.0)
         self._valve_leak = self.effects.chamber_array(robot, "valve_leak_m2")
+        exhaust = self.effects.chamber_array(robot, "valve_leak_exhaust_m2")
+        given = np.array([f"{a}.{c}" in self.effects.valve_leak_exhaust_m2 for a, c in robot.chamber_names])
+        self._valve_leak_exhaust = np.where(given, exhaust, self._valve_leak)  # symmetric unless given
         self._hysteresis = self.effects.chamber_array(robot, "valve_hysteresis_v")
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
         self._q_offset = self.effects.joint_array(robot, "angle_offset_rad")
@@ -221,9 +224,9 @@ class Simulation:
     def _update_areas(self, spool=None):
         spool = self.spool_position if spool is None else spool
         a_s, a_e = valve_areas_table(self.tables, spool)
-        if self._valve_leak.any():  # valve_leak: the spool does not shut near null
-            g = self._valve_leak * np.exp(-((spool - self.tables.valve[:, 0]) / self.effects.valve_leak_width_v) ** 2)
-            a_s, a_e = a_s + g, a_e + g
+        if self._valve_leak.any() or self._valve_leak_exhaust.any():  # valve_leak: the spool does not shut near null
+            g = np.exp(-((spool - self.tables.valve[:, 0]) / self.effects.valve_leak_width_v) ** 2)
+            a_s, a_e = a_s + self._valve_leak * g, a_e + self._valve_leak_exhaust * g
         self.areas[:, 0], self.areas[:, 1] = a_s, a_e
 
     # -- stepping ------------------------------------------------------------------------

@@ -24,6 +24,8 @@ EFFECTS = {
     "calibration": {"supply_scale": np.array([0.9, 1.1, 1.0, 0.8]), "exhaust_scale": np.array([1.2, 0.9, 1.0, 1.1]),
                     "dead_volume_scale": np.array([1.3, 0.7, 1.0, 1.5])},
     "valve_leak": {"valve_leak_m2": np.array([2e-8, 0.0, 5e-8, 0.0]), "valve_leak_width_v": 0.4},
+    "valve_leak_asymmetric": {"valve_leak_m2": np.array([1e-8, 0.0, 5e-8, 0.0]),
+                              "valve_leak_exhaust_m2": np.array([4e-8, 2e-8, 5e-8, 0.0])},
     "external_leak": {"external_leak_m2": np.array([0.0, 3e-8, 0.0, 1e-8])},
     "piston_leak": {"piston_leak_m2": np.array([2e-8, 4e-8])},
     "supply_droop": {"supply_droop_pa_per_kg_s": 3e7},

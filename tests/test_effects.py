@@ -191,3 +191,25 @@ def test_end_stop_stops_the_joint_inside_the_model_limit():
         q.append(sim.data.qpos[sim.robot.qpos_index[0]])
     assert max(q) < hi - 0.2 + 0.03          # the bumper yields a little, never to the old limit
     assert q[-1] > hi - 0.2 - 0.03           # and the joint rests on it
+
+
+def _settle_at_null(effects: EffectSet) -> float:
+    """Elbow chamber a's pressure [Pa] after 20 s with its valve at null and the arm braced."""
+    robot = leak_free(load_robot("arm2"))
+    sim = Simulation(robot, effects=effects)
+    sim.model.opt.gravity[:] = 0
+    sim.model.eq_active0[sim.model.equality("brace_shoulder").id] = 1
+    sim.reset(pressure_pa=4e5)
+    sim.set_command([5, 5, 5, 5])
+    sim.step(20000)
+    return float(sim.pressure[2])
+
+
+def test_an_asymmetric_valve_leak_moves_the_pressure_a_closed_valve_settles_at():
+    """A leak open both ways near null pulls the chamber to where its supply inflow equals its
+    exhaust outflow (isentropic orifices, paper 002 eqs. 6-8): with equal areas well between
+    room and supply, with a larger exhaust-side area lower, with a larger supply side higher."""
+    same = _settle_at_null(EffectSet(valve_leak_m2={"elbow.a": 3e-8}))
+    more_exhaust = _settle_at_null(EffectSet(valve_leak_m2={"elbow.a": 3e-8}, valve_leak_exhaust_m2={"elbow.a": 6e-8}))
+    more_supply = _settle_at_null(EffectSet(valve_leak_m2={"elbow.a": 6e-8}, valve_leak_exhaust_m2={"elbow.a": 3e-8}))
+    assert 2e5 < more_exhaust < same - 5e4 and same + 5e4 < more_supply < 7e5

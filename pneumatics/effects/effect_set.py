@@ -24,6 +24,10 @@ class EffectSet:
     replacing what a user put there."""
     valve_leak_m2: dict = field(default_factory=dict)
     """chamber -> extra area open both ways near null [m^2] (valve_leak; Gaussian of width valve_leak_width_v)"""
+    valve_leak_exhaust_m2: dict = field(default_factory=dict)
+    """chamber -> the leak's exhaust-side area [m^2] where it differs from the supply side's
+    (``valve_leak_m2``): the two lands of a spool need not be underlapped alike, which moves the
+    pressure the leak pulls the chamber towards"""
     valve_leak_width_v: float = 0.6
     external_leak_m2: dict = field(default_factory=dict)
     """chamber -> effective area of a leak to the room [m^2] (external_leak)"""
@@ -124,7 +128,7 @@ class EffectSet:
 
     @property
     def empty(self) -> bool:
-        return not any((self.friction, self.valve_leak_m2, self.external_leak_m2, self.piston_leak_m2,
+        return not any((self.friction, self.valve_leak_m2, self.valve_leak_exhaust_m2, self.external_leak_m2, self.piston_leak_m2,
                         self.valve_hysteresis_v, self.pressure_offset_pa, self.angle_offset_rad,
                         self.supply_droop_pa_per_kg_s, self.valve_lag_s, self.line_dynamics, self.end_stop,
                         self.heat_transfer, self.backlash))
