@@ -70,11 +70,12 @@ UNEXPLAINED_RATIO = 1.6    # a chamber's held-out RMS over the chambers' median
 TRAIN_RATIO = 1.3          # ... and its training RMS over the chambers' median
 MAX_ROUNDS = 3
 MIN_FITS = 2               # full fits per round: the score test's best two always ...
-MAX_FITS = 4               # ... and up to this many when their predicted gains are close:
+MAX_FITS = 6               # ... and up to this many when their predicted gains are close:
 FIT_WITHIN = 1 / 3         # within this fraction of the best's.  The score test is linear at a
                            # calibration that may have absorbed part of the effect, so its
                            # ranking is rough: on case 1019 a piston leak (held-out gain 0.99
-                           # once fitted) ranked 4th at 0.48 of the best's predicted gain
+                           # once fitted) ranked 4th at 0.48 of the best's predicted gain, and
+                           # 5th once valve leaks came in two forms
 #: End-stop hypotheses (hypotheses.end_stop_hypotheses).  Their stiffness is bounded below by
 #: hypotheses.END_STOP_MIN_STIFFNESS_NM_PER_RAD: without the bound a weak "stop" spring had stood
 #: in for an angle-sensor offset (case 1026).  With it they name the bumpers of unconcealed
