@@ -89,7 +89,7 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
                        apply=_valve_leak(c, C, asymmetric=False)),
             # the lands underlapped unequally: the pressure the leak pulls the chamber towards
             # moves (a laminar underlap balances near (p_s + p_room) / 2, the symmetric orifice
-            # leak near 5.3 bar on arm2); the symmetric one is preferred unless this pays clearly
+            # leak near 5.6 bar on arm2); the symmetric one is preferred unless this pays clearly
             Hypothesis("valve_leak", where, "pneumatic", [("supply_leak_area_m2", 0.0, 0.0, 4e-7, 2e-8),
                                                           ("exhaust_leak_area_m2", 0.0, 0.0, 4e-7, 2e-8)], [c],
                        apply=_valve_leak(c, C, asymmetric=True)),

@@ -8,7 +8,7 @@ and the mismatch finder tests the same physics as hypotheses
 | family | physics | simulator | doctor |
 | --- | --- | --- | --- |
 | coulomb_friction, stiction, viscous_friction | Coulomb + Stribeck + viscous torque (`friction.py`) | kernel, qfrc_applied | yes |
-| valve_leak | spool open both ways near null: extra Gaussian area | valve areas | yes |
+| valve_leak | spool open both ways near null: extra Gaussian area, alike on both lands or not (`valve_leak_exhaust_m2`) | valve areas | yes |
 | external_leak | orifice from a chamber to the room (`chamber.leak_flows`) | kernel | yes |
 | piston_leak | orifice between chambers a and b, conserving the cylinder's air | kernel | yes |
 | valve_hysteresis | play operator between command and spool (`valve_dynamics.play`) | at each command | yes |
