@@ -264,8 +264,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             f.windows = windows(t_h, r)
         else:
             j = f.scored.hyp.joint
-            r = td_h.residual[:, j] - np.einsum("np,p->n", td_h.regressors[:, j], rfit.values)
-            r = np.where(td_h.valid, r, 0.0)
+            r = _joint_residual(td_h, rfit, j)
             f.regime, lift, share = locate_regime(r, joint_regimes(held, j))
             f.windows = windows(held.t, r)
             full = _regs(kept_mech, held, td_h)
@@ -434,11 +433,16 @@ def _heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block)
     s.heldout_before, s.heldout_after = base_h, torque_rms(td_h, s.fit, full, block)
 
 
+def _joint_residual(td, rfit, j: int) -> np.ndarray:
+    """Joint j's torque residual (N,) after the calibrated rigid body, 0 where not valid."""
+    r = td.residual[:, j] - np.einsum("np,p->n", td.regressors[:, j], rfit.values)
+    return np.where(td.valid, r, 0.0)
+
+
 def _outside_torque(robot, held, td_h, rfit, j: int, best: Finding, yard_gain: float) -> dict:
     """The unexplained entry of joint j, whose torque residual a smooth function of its state
     takes up far better than the library's best effect (``best``)."""
-    r = td_h.residual[:, j] - np.einsum("np,p->n", td_h.regressors[:, j], rfit.values)
-    r = np.where(td_h.valid, r, 0.0)
+    r = _joint_residual(td_h, rfit, j)
     # in 0.1 s means: the raw equation error is mostly noise from differentiating the angles twice
     block = max(1, int(round(MECH_BLOCK_S * held.rate_hz)))
     r = np.convolve(r, np.ones(block) / block, mode="same")

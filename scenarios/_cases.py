@@ -188,16 +188,22 @@ def make_case(out: Path, seed: int, families: list[str], *, fraction: float = 0.
         t["scale"] = scale
         t["parameters"] = _plain({k: ({kk: scale_value(kk, vv, scale) for kk, vv in v.items()}
                                       if isinstance(v, dict) else v * scale) for k, v in t["parameters"].items()})
-    paths = {}
-    for part, rec in recs.items():
-        path = Path(out) / f"{name}{'' if part == 'main' else '_heldout'}.csv"
-        rec.to_csv(path)
-        paths[part] = str(path)
+    paths = _write(out, name, recs)
     truth = {"case": name, "seed": seed, "effects": truths, "families": families or ["none"],
              "parameter_factors": factors, "perturbation_fraction": fraction, "recordings": paths,
              "concealment": {"history": history, "r2_per_channel": r2 if families else {}}}
     atomic_write_json(Path(out) / f"{name}.truth.json", truth)
     return truth
+
+
+def _write(out, name: str, recs: dict) -> dict:
+    """<name>.csv and <name>_heldout.csv in ``out``; their paths by part."""
+    paths = {}
+    for part, rec in recs.items():
+        path = Path(out) / f"{name}{'' if part == 'main' else '_heldout'}.csv"
+        rec.to_csv(path)
+        paths[part] = str(path)
+    return paths
 
 
 def _record(robot, effects, seed, seconds, heldout_seconds) -> dict:
@@ -241,11 +247,7 @@ def make_spring_case(out: Path, seed: int, joint: str, stiffness_nm_per_rad: flo
             break
         k *= 0.5
     name = f"case_{seed}_spring"
-    paths = {}
-    for part, rec in recs.items():
-        path = Path(out) / f"{name}{'' if part == 'main' else '_heldout'}.csv"
-        rec.to_csv(path)
-        paths[part] = str(path)
+    paths = _write(out, name, recs)
     truth = {"case": name, "seed": seed, "families": ["unexplained"],
              "effects": [{"family": "unexplained", "where": {"joint": joint}, "kind": "joint_spring",
                           "parameters": {"stiffness_nm_per_rad": k, "rest_rad": rest_rad}}],
