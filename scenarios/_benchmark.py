@@ -1,5 +1,5 @@
-"""What the blind benchmarks (arm2 and jet-pipe) share: the case lines they print and the
-metrics of the issue, from one row per case (``families``: the hidden families or ["none"];
+"""What the blind benchmarks (arm2, jet-pipe and the variant forms) share: the case lines they
+print, the confusion-matrix plot and the metrics of the issue, from one row per case (``families``: the hidden families or ["none"];
 ``family_ok``, ``location_ok``, ``verdict``, ``nrmse_reduction``, ``seconds``, ``unexplained``)."""
 from __future__ import annotations
 
@@ -50,3 +50,24 @@ def common_metrics(rows: list[dict], min_r2_key: str) -> dict:
         "seconds_per_case": float(np.mean([r["seconds"] for r in rows])),
         "concealed_fraction": float(np.mean([r[min_r2_key] >= 0.9 for r in effect_rows])) if effect_rows else 1.0,
     }
+
+
+def plot_confusion(ctx, mat: np.ndarray, hidden: list[str], named: list[str], title: str) -> None:
+    """confusion_matrix.png: ``mat`` (len(hidden), len(named)) counts, hidden families in rows,
+    what the doctor named in columns; fractions where a case's names were shared."""
+    from .common import plt
+
+    fig, ax = plt.subplots(figsize=(9, 7))
+    ax.imshow(mat, cmap="Blues")
+    ax.set_xticks(range(len(named)), named, rotation=60, ha="right", fontsize=8)
+    ax.set_yticks(range(len(hidden)), hidden, fontsize=8)
+    for i in range(len(hidden)):
+        for k in range(len(named)):
+            if mat[i, k]:
+                ax.text(k, i, f"{mat[i, k]:.0f}" if mat[i, k] == int(mat[i, k]) else f"{mat[i, k]:.1f}",
+                        ha="center", va="center", fontsize=8, color="white" if mat[i, k] > 0.5 * mat.max() else "black")
+    ax.set_xlabel("named by the doctor")
+    ax.set_ylabel("hidden in the recording")
+    ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    ctx.savefig(fig, "confusion_matrix.png")

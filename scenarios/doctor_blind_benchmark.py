@@ -29,10 +29,10 @@ from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import common_metrics, print_cases
+from ._benchmark import common_metrics, plot_confusion, print_cases
 from ._benchmark import judge as judge_effects
 from ._cases import BENCHMARK_FAMILIES, make_case
-from .common import main, plt
+from .common import main
 
 SUMMARY = "mismatch finder on concealed effects: confusion matrix, accuracy, false discoveries"
 
@@ -129,20 +129,7 @@ def _confusion(rows, ctx):
             else:
                 for n in left:
                     mat[fams.index(t), cols.index(n) if n in cols else -1] += 1 / len(left)
-    fig, ax = plt.subplots(figsize=(9, 7))
-    ax.imshow(mat, cmap="Blues")
-    ax.set_xticks(range(len(cols)), cols, rotation=60, ha="right", fontsize=8)
-    ax.set_yticks(range(len(fams)), fams, fontsize=8)
-    for i in range(len(fams)):
-        for k in range(len(cols)):
-            if mat[i, k]:
-                ax.text(k, i, f"{mat[i, k]:.0f}" if mat[i, k] == int(mat[i, k]) else f"{mat[i, k]:.1f}",
-                        ha="center", va="center", fontsize=8)
-    ax.set_xlabel("named by the doctor")
-    ax.set_ylabel("hidden in the recording")
-    ax.set_title("doctor blind benchmark: confusion matrix")
-    fig.tight_layout()
-    ctx.savefig(fig, "confusion_matrix.png")
+    plot_confusion(ctx, mat, fams, cols, "doctor blind benchmark: confusion matrix")
 
 
 if __name__ == "__main__":

@@ -31,10 +31,10 @@ from pneumatics.io import atomic_write_json
 from pneumatics.recording import read_csv
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import common_metrics, print_cases
+from ._benchmark import common_metrics, plot_confusion, print_cases
 from ._benchmark import judge as judge_effects
 from ._jetpipe_cases import FAMILIES, make_case
-from .common import main, plt
+from .common import main
 
 SUMMARY = "jet-pipe mismatch finder on concealed effects: confusion matrix, accuracy, false discoveries"
 
@@ -132,21 +132,8 @@ def _confusion(rows, ctx):
                 mat[fams.index(t), cols.index(t)] += 1
             for n in (extra or ["none"]) if t in missed else ([] if missed else extra):
                 mat[fams.index(t), cols.index(n)] += 1 / len(extra or ["none"]) if t in missed else 1 / len(r["families"])
-    fig, ax = plt.subplots(figsize=(8, 6.5))
-    ax.imshow(mat, cmap="Blues")
-    ax.set_xticks(range(len(cols)), cols, rotation=60, ha="right", fontsize=8)
-    ax.set_yticks(range(len(fams)), fams, fontsize=8)
-    for i in range(len(fams)):
-        for k in range(len(cols)):
-            if mat[i, k]:
-                ax.text(k, i, f"{mat[i, k]:.0f}" if mat[i, k] == int(mat[i, k]) else f"{mat[i, k]:.1f}",
-                        ha="center", va="center", fontsize=8, color="white" if mat[i, k] > 0.5 * mat.max() else "black")
-    ax.set_xlabel("named by the doctor")
-    ax.set_ylabel("hidden in the recording")
-    ax.set_title("jet-pipe doctor blind benchmark: confusion matrix\n(an extra finding beside a right one counts in its row too)",
-                 fontsize=10)
-    fig.tight_layout()
-    ctx.savefig(fig, "confusion_matrix.png")
+    plot_confusion(ctx, mat, fams, cols, "jet-pipe doctor blind benchmark: confusion matrix\n"
+                   "(an extra finding beside a right one counts in its row too)")
 
 
 if __name__ == "__main__":

@@ -28,10 +28,10 @@ from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import common_metrics, print_cases
+from ._benchmark import common_metrics, plot_confusion, print_cases
 from ._variantsim.cases import make_case
 from ._variantsim.effects import FAMILIES
-from .common import main, plt
+from .common import main
 from .doctor_blind_benchmark import _same, judge
 
 SUMMARY = "mismatch finder on effects in other functional forms (independent variant simulator)"
@@ -139,19 +139,8 @@ def _confusion(rows, ctx):
             for n in extra or ["none"]:
                 mat[fams.index(t), cols.index(n) if n in cols else -1] += 1 / len(extra or ["none"]) / (
                     1 if missed else len(r["families"]))
-    fig, ax = plt.subplots(figsize=(9, 7))
-    ax.imshow(mat, cmap="Blues")
-    ax.set_xticks(range(len(cols)), cols, rotation=60, ha="right", fontsize=8)
-    ax.set_yticks(range(len(fams)), fams, fontsize=8)
-    for i in range(len(fams)):
-        for k in range(len(cols)):
-            if mat[i, k]:
-                ax.text(k, i, f"{mat[i, k]:.3g}", ha="center", va="center", fontsize=8)
-    ax.set_xlabel("named by the doctor")
-    ax.set_ylabel("hidden in the recording (variant forms)")
-    ax.set_title("doctor on the variant simulator: confusion matrix")
-    fig.tight_layout()
-    ctx.savefig(fig, "confusion_matrix.png")
+    plot_confusion(ctx, mat, fams, cols, "doctor on the variant simulator (other functional forms): confusion matrix\n"
+                   "(an extra finding beside a right one counts in its row too)")
 
 
 if __name__ == "__main__":
