@@ -16,7 +16,7 @@ from pneumatics.errors import RecordingError
 from pneumatics.recording import Recording, validate
 from pneumatics.robot import Robot
 
-from .smoothing import smooth_derivatives
+from .smoothing import discrepancy_lambda, smooth_derivatives, spline_cutoff_hz
 
 FINE_DT = 1e-3
 
@@ -41,6 +41,7 @@ class Experiment:
     fine_length: np.ndarray = field(default=None)  # (F, n_act) actuator lengths on the grid
     fine_q: np.ndarray = field(default=None)       # (F, J)
     breaks: tuple = ()                              # sample indices where a pooled recording starts
+    q_cutoff_hz: float = np.inf                     # the angle splines' half-amplitude frequency (lowest joint)
 
     @property
     def rate_hz(self) -> float:
@@ -73,11 +74,13 @@ def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None) -> Ex
     q = rec.matrix("q", joints)
     p = np.column_stack([rec[f"p_{c}.{a}"] for a in acts for c in ("a", "b")])
     u = np.column_stack([rec[f"u_{c}.{a}"] for a in acts for c in ("a", "b")])
-    d = [smooth_derivatives(ts, q[:, j], order=2) for j in range(len(joints))]
+    lams = [discrepancy_lambda(ts, q[:, j]) for j in range(len(joints))]
+    d = [smooth_derivatives(ts, q[:, j], order=2, lam=lam) for j, lam in enumerate(lams)]
     q_s = np.column_stack([x[0] for x in d])
     qd = np.column_stack([x[1] for x in d])
     qdd = np.column_stack([x[2] for x in d])
     exp = Experiment(robot, rec, t, ts, q, q_s, qd, qdd, p, u, averaged)
+    exp.q_cutoff_hz = min(spline_cutoff_hz(lam, 1.0 / rate) for lam in lams)
     # pressures at the sample instants (window starts of the replays): a light smoothing
     # spline through the DAQ means, evaluated half a period later than they stand
     exp.p_at_t = np.column_stack([_light_spline(ts, p[:, c])(t) for c in range(p.shape[1])])
@@ -91,7 +94,7 @@ def _light_spline(t, y, fraction: float = 0.5):
     motions (which would bias the chamber stiffness and so the fitted dead volumes)."""
     from scipy.interpolate import make_smoothing_spline
 
-    from .smoothing import discrepancy_lambda, noise_sd
+    from .smoothing import noise_sd
     return make_smoothing_spline(t, y, lam=discrepancy_lambda(t, y, fraction * noise_sd(y)))
 
 
@@ -169,7 +172,7 @@ def pool(exps: list[Experiment]) -> Experiment:
     out = Experiment(first.robot, first.rec, cat["t"], cat["t_sensor"], cat["q"], cat["q_s"], cat["qd"], cat["qdd"],
                      cat["p"], cat["u"], first.averaged, cat["p_at_t"],
                      cat["t"][0] + np.arange(cat["fine_q"].shape[0]) * FINE_DT, cat["fine_length"], cat["fine_q"],
-                     tuple(breaks))
+                     tuple(breaks), min(e.q_cutoff_hz for e in exps))
     expected = int(round((out.t[-1] - out.t[0]) / FINE_DT)) + 1
     if out.fine_t.size != expected:  # each recording's grid must span whole milliseconds
         raise RecordingError(f"pooling: fine grid of {out.fine_t.size} points, expected {expected}")

@@ -198,7 +198,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         block = max(1, int(round(MECH_BLOCK_S * held.rate_hz)))
         base_h = torque_rms(td_h, base, None if base_extra is None else _regs(kept_mech, held, td_h), block)
         for s in scored:
-            _heldout_torque(s, held, td_h, kept_mech, base_extra, base_h, block)
+            _heldout_torque(s, held, td_h, kept_mech, base_extra, base_h, block, exp, td)
         finding = _accept(scored, MECH_KEEP)
         if finding is None:
             break
@@ -336,6 +336,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             "calibration_condition": cfit.condition,
             "rigid_body_condition": rfit.condition,
             "parameters_at_bounds": cfit.at_bound + rfit.at_bound,
+            "rigid_body_kept_nominal": dict(td.fixed or {}),
             **tests,
             "ljung_box_q_heldout_pressure": {k: v["after"]["q"] for k, v in tests["ljung_box_heldout_pressure"].items()},
             "train_seconds": float(exp.t[-1] - exp.t[0]),
@@ -426,11 +427,35 @@ def _to_fit(cands: list) -> list:
     return out
 
 
-def _heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block):
-    """Held-out torque RMS per joint before (``base_h``) and after s's fit, in ``block`` means."""
+def _heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block, exp=None, td=None):
+    """Held-out torque RMS per joint before (``base_h``) and after s's fit, in ``block`` means.
+
+    Where the held-out data never enter the effect's regime (its regressors are zero on every
+    usable held-out sample: a bumper the held-out motions never reach) they can neither
+    confirm nor refute it; then, given the training data (``exp``, ``td``), the same numbers
+    come from a two-fold cross-validation on them (each half predicted by a fit to the other).
+    """
     ex = s.hyp.regressor(held, td_h)
+    if exp is not None and not np.any(ex[td_h.valid]):
+        _crossval_torque(s, exp, td, base_extra, block)
+        return
     full = ex if base_extra is None else np.concatenate([_regs(kept_mech, held, td_h), ex], axis=2)
     s.heldout_before, s.heldout_after = base_h, torque_rms(td_h, s.fit, full, block)
+
+
+def _crossval_torque(s: Scored, exp, td, base_extra, block):
+    import dataclasses
+    extra, names, bounds = stack_terms(base_extra, s.hyp.regressor(exp, td), s.hyp)
+    half = np.arange(td.valid.size) < td.valid.size // 2
+    before, after = 0.0, 0.0
+    for part in (half, ~half):
+        fit_on = dataclasses.replace(td, valid=td.valid & part)
+        test_on = dataclasses.replace(td, valid=td.valid & ~part)
+        base = fit_rigid_body(fit_on, *base_extra) if base_extra else fit_rigid_body(fit_on)
+        before = before + torque_rms(test_on, base, None if base_extra is None else base_extra[0], block) ** 2
+        after = after + torque_rms(test_on, fit_rigid_body(fit_on, extra, names, bounds), extra, block) ** 2
+    s.heldout_before, s.heldout_after = np.sqrt(before / 2), np.sqrt(after / 2)
+    s.judged_by = "two-fold cross-validation on the training data (the held-out motions never reach its regime)"
 
 
 def _joint_residual(td, rfit, j: int) -> np.ndarray:
@@ -551,8 +576,9 @@ def _evidence(f: Finding) -> str:
     if f.alternative_places:
         alt += ("; a constant force error of this cylinder: an offset on chamber a or on chamber b "
                 "(offset_pa_if_chamber_b), these sensors cannot tell which")
+    judged = "" if f.scored.judged_by == "held-out data" else f" (judged by {f.scored.judged_by})"
     return (f"{f.family} at {where} ({p}) removes {100 * f.heldout_gain:.0f} % of the held-out "
-            f"{'pressure' if f.scored.hyp.kind == 'pneumatic' else 'torque'} residual, concentrated in {f.regime}{alt}")
+            f"{'pressure' if f.scored.hyp.kind == 'pneumatic' else 'torque'} residual{judged}, concentrated in {f.regime}{alt}")
 
 
 def _finding_json(f: Finding) -> dict:

@@ -6,6 +6,23 @@ needs (paper 002 eqs. 1-5 in MuJoCo form).
 with q smoothed and differentiated by splines.  Calibration regressors (per moving body a
 mass-and-inertia scale, per joint damping and armature) are the finite differences of the
 inverse dynamics — exact, since it is linear in each — so calibration is linear least squares.
+
+Two practices of robot identification keep that least squares unbiased (Gautier & Khalil;
+Swevers et al. 2007, "Dynamic model identification for industrial robots", IEEE CSM 27(5)):
+
+* **Parallel filtering and decimation.**  The spline attenuates the fast part of the
+  accelerations, the measured torque keeps it, and the noise left in q-double-dot makes the
+  regressors errors-in-variables; both biased the inertias by 5-15 % on arm2 recordings with
+  the model's own 0.05 deg angle noise.  The torque and every regressor column pass the same
+  zero-phase low-pass (a model linear in its parameters stays linear), well inside the band
+  where the spline is exact, and are then sampled at about 2.5x the cut-off so that the
+  residual samples are nearly independent and the standard errors mean what they say.
+* **Base and essential parameters.**  A column that moves exactly with an earlier one (arm2's
+  shoulder armature and upper-link inertia: both pure shoulder inertia) cannot be told apart
+  from it and is not fitted (Gautier & Khalil 1990, "Direct calculation of minimum set of
+  inertial parameters of serial robots", IEEE TRA 6(3)); one the data pin down no better than
+  ESSENTIAL_SE (a 0.25 % armature on a 3 % inertia error) stays nominal (Pham & Gautier 1991,
+  "Essential parameters of robots", IEEE CDC), instead of running to its bound.
 """
 from __future__ import annotations
 
@@ -14,11 +31,24 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 from scipy.optimize import lsq_linear
+from scipy.signal import butter, sosfiltfilt
 
 from pneumatics.chamber import actuator_force
 
 from .data import Experiment
 from .lsq import Fit, _covariance
+
+#: the parallel low-pass sits at this fraction of the angle splines' half-amplitude frequency,
+#: where the spline passes q-double-dot within 0.2 % (H = 1 / (1 + 0.2^4), smoothing.spline_cutoff_hz).
+#: It must be that close: arm2's upper link is a fifth of the shoulder's inertia, so a 1 %
+#: error in the total is 5 % on its scale (0.35 of the cut-off left +1..4 % there, 0.2 under 1 %)
+PARALLEL_FRACTION = 0.2
+#: decimated samples per cut-off period / 2 (2.5: Nyquist of the decimated data 1.25x the cut-off)
+DECIMATION_MARGIN = 2.5
+#: a calibration parameter (relative scale) whose standard error exceeds this stays nominal
+ESSENTIAL_SE = 0.2
+#: relative norm left after projecting a column on the earlier ones below which it is dependent
+DEPENDENT = 1e-4
 
 
 @dataclass
@@ -35,10 +65,38 @@ class TorqueData:
     valid: np.ndarray
     dtau_dq: np.ndarray = None  # (N, J, J) d tau_inv / d q_k (angle offsets)
     dtau_dp: np.ndarray = None  # (N, J, C) d tau_act / d p_c per Pa measured (pressure-sensor offsets)
+    rate_hz: float = 100.0
+    lowpass_hz: float = np.inf  # the parallel filter's cut-off (inf: none, noise-free angles)
+    breaks: tuple = ()          # sample indices where a pooled recording starts
+    fixed: dict = None          # calibration parameters kept nominal -> why (calibrate_rigid_body)
+    calibration: Fit = None     # calibrate_rigid_body's result, whose inertias the effect fits hold
 
     @property
     def residual(self) -> np.ndarray:
         return self.tau_act - self.tau_inv
+
+    def decimate(self, x: np.ndarray) -> np.ndarray:
+        """x (N, ...) low-passed like the torque (zero phase, per pooled recording) and taken at
+        every D-th valid sample away from the filter's reach of an invalid one: (M, ...)."""
+        if not np.isfinite(self.lowpass_hz):
+            return x[self.valid]
+        sos = butter(4, self.lowpass_hz / (0.5 * self.rate_hz), output="sos")
+        y = np.empty_like(x)
+        bounds = (0, *self.breaks, x.shape[0])
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            y[a:b] = sosfiltfilt(sos, x[a:b], axis=0)
+        return y[self.decimation_index()]
+
+    def decimation_index(self) -> np.ndarray:
+        reach = int(np.ceil(self.rate_hz / self.lowpass_hz))  # >99.9 % of the filter's impulse response
+        bad = ~self.valid.copy()
+        for b in (0, *self.breaks, bad.size):
+            bad[max(b - 1, 0):b + 1] = True
+        near = np.convolve(bad.astype(float), np.ones(2 * reach + 1), "same") > 0
+        step = max(1, int(self.rate_hz / (DECIMATION_MARGIN * self.lowpass_hz)))
+        keep = np.zeros_like(near)
+        keep[::step] = True
+        return np.flatnonzero(keep & ~near)
 
 
 def _inverse(model, qadr, dadr, q, qd, qdd, ids=None, forces=None, moments=False):
@@ -126,8 +184,11 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
     valid = ~near
     for b in (0, *exp.breaks, valid.size):  # the ends of every pooled recording
         valid[max(b - edge, 0):b + edge] = False
+    lowpass = PARALLEL_FRACTION * exp.q_cutoff_hz
+    if lowpass >= 0.4 * exp.rate_hz:  # noise-free angles: the spline interpolates, nothing to match
+        lowpass = np.inf
     return TorqueData(tau_act, tau_inv, np.stack(regs, axis=2), names, np.array(lo), np.array(hi), valid, dtau_dq,
-                      dtau_dp)
+                      dtau_dp, exp.rate_hz, lowpass, tuple(exp.breaks))
 
 
 def _copy(model):
@@ -135,27 +196,94 @@ def _copy(model):
     return copy.copy(model)
 
 
-def fit_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_names=(), extra_bounds=None):
-    """Bounded linear least squares of tau_res = sum theta_k reg_k (+ extra regressors).
+def calibrate_rigid_body(td: TorqueData) -> Fit:
+    """The rigid body's calibration: bounded linear least squares of tau_res = sum theta_k reg_k
+    on the parallel-filtered, decimated samples (module docstring).  The parameters the data
+    cannot identify are chosen here (``td.fixed``) and held at 0 with a NaN standard error.
+    Returns a Fit (scales are relative changes: 0 = nominal), also kept as ``td.calibration``."""
+    A, y = td.decimate(td.regressors), td.decimate(td.residual)
+    A2, y2 = _scaled(A, y)
+    if td.fixed is None:
+        td.fixed = _unidentified(A2, y2, td.names, td.lower, td.upper)
+    free = np.array([n not in td.fixed for n in td.names])
+    td.calibration = _bounded_fit(A2, y2, list(td.names), td.lower, td.upper, free, np.zeros(len(td.names)))
+    return td.calibration
 
-    ``extra`` (N, J, E) adds effect regressors (e.g. friction).  Returns a Fit (scales are
-    relative changes: 0 = nominal)."""
+
+def fit_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_names=(), extra_bounds=None) -> Fit:
+    """The torque balance with effect regressors ``extra`` (N, J, E) on the raw samples.
+
+    An effect's torque can be sharp (a bumper's impact lasts a few samples), which the
+    calibration's low-pass would smear into something a wrong stiffness and damping fit as
+    well, so effects are fitted on the unfiltered samples.  There the noise in the angles'
+    second derivative biases the inertias, so the inertial terms (mass and armature scales)
+    are held at the calibration's values (``calibrate_rigid_body``, run first if it has not
+    been); the joints' damping, which an effect such as friction may have taken up, is
+    refitted with the effect.  Without ``extra`` this is the calibrated model's raw fit, the
+    baseline effects are scored against.  Values in the order of ``td.names`` then
+    ``extra_names``; held parameters have a NaN standard error."""
+    cal = td.calibration if td.calibration is not None else calibrate_rigid_body(td)
     v = td.valid
-    A = td.regressors[v]
+    A = td.regressors[v] if extra is None else np.concatenate([td.regressors[v], extra[v]], axis=2)
+    names = list(td.names) + list(extra_names)
     lo, hi = td.lower, td.upper
-    names = list(td.names)
-    if extra is not None:
-        A = np.concatenate([A, extra[v]], axis=2)
-        names += list(extra_names)
-        elo, ehi = extra_bounds if extra_bounds is not None else (np.full(extra.shape[2], -np.inf), np.full(extra.shape[2], np.inf))
+    n_e = 0 if extra is None else extra.shape[2]
+    if n_e:
+        elo, ehi = extra_bounds if extra_bounds is not None else (np.full(n_e, -np.inf), np.full(n_e, np.inf))
         lo, hi = np.concatenate([lo, elo]), np.concatenate([hi, ehi])
-    y = td.residual[v]
+    held = np.concatenate([cal.values, np.zeros(n_e)])
+    free = np.array([k >= len(td.names) or (n.startswith("damping_scale.") and n not in td.fixed)
+                     for k, n in enumerate(names)])
+    A2, y2 = _scaled(A, td.residual[v])
+    return _bounded_fit(A2, y2, names, lo, hi, free, held)
+
+
+def _scaled(A, y):
+    """(A2 (M J, P), y2 (M J,)): each joint's rows divided by its residual's s.d."""
     scale = np.array([max(np.std(y[:, j]), 1e-9) for j in range(y.shape[1])])
-    A2 = (A / scale[None, :, None]).reshape(-1, A.shape[2])
-    y2 = (y / scale).ravel()
-    r = lsq_linear(A2, y2, bounds=(lo, hi))
-    res = y2 - A2 @ r.x
+    return (A / scale[None, :, None]).reshape(-1, A.shape[2]), (y / scale).ravel()
+
+
+def _bounded_fit(A2, y2, names, lo, hi, free, held) -> Fit:
+    """lsq_linear on the ``free`` columns, the others at their ``held`` values (NaN stderr)."""
+    x = np.array(held, float)
+    se = np.full(len(names), np.nan)
+    y_f = y2 - A2[:, ~free] @ x[~free]
+    r = lsq_linear(A2[:, free], y_f, bounds=(lo[free], hi[free]))
+    x[free] = r.x
+    res = y_f - A2[:, free] @ r.x
     rss = float(res @ res)
-    se, cond = _covariance(A2, rss, y2.size)
-    at = [n for n, x, a, b in zip(names, r.x, lo, hi) if (np.isfinite(a) and x - a < 1e-6) or (np.isfinite(b) and b - x < 1e-6)]
-    return Fit(names, r.x, se, rss, y2.size, cond, at, res)
+    se[free], cond = _covariance(A2[:, free], rss, y2.size)
+    at = [n for n, v, a, b, f in zip(names, x, lo, hi, free)
+          if f and ((np.isfinite(a) and v - a < 1e-6) or (np.isfinite(b) and b - v < 1e-6))]
+    return Fit(names, x, se, rss, y2.size, cond, at, res)
+
+
+def _unidentified(A2, y2, names, lo, hi) -> dict:
+    """Calibration parameters kept nominal -> the reason: first those whose column is a
+    combination of earlier ones (the order of ``names``: bodies before joint terms), then,
+    one at a time, the one with the largest standard error while that exceeds ESSENTIAL_SE."""
+    fixed = {}
+    kept = []
+    for k, n in enumerate(names):
+        col = A2[:, k]
+        norm = np.linalg.norm(col)
+        if kept:
+            Q = A2[:, kept]
+            coef, *_ = np.linalg.lstsq(Q, col, rcond=None)
+            left = np.linalg.norm(col - Q @ coef)
+        else:
+            left = norm
+        if norm == 0 or left < DEPENDENT * norm:
+            twin = names[kept[int(np.argmax(np.abs(coef) * np.linalg.norm(Q, axis=0)))]] if kept else "nothing"
+            fixed[n] = f"moves exactly with {twin} (not separable; fitted as part of it)"
+            continue
+        kept.append(k)
+    while True:
+        free = np.array([n not in fixed for n in names])
+        fit = _bounded_fit(A2, y2, names, lo, hi, free, np.zeros(len(names)))
+        se = np.where(free, fit.stderr, -np.inf)
+        worst = int(np.argmax(se))
+        if se[worst] <= ESSENTIAL_SE:
+            return fixed
+        fixed[names[worst]] = f"not identifiable from these motions (standard error {se[worst]:.2g})"

@@ -174,7 +174,8 @@ def _markdown(report, pngs) -> str:
     lines += ["", "## Diagnostics", "",
               f"- pressure noise floor (from the data): {d['pressure_noise_pa']:.0f} Pa",
               f"- condition numbers (scaled J^T J): chambers {d['calibration_condition']:.3g}, rigid body {d['rigid_body_condition']:.3g}",
-              f"- parameters at their bounds: {', '.join(d['parameters_at_bounds']) or 'none'}", ""]
+              f"- parameters at their bounds: {', '.join(d['parameters_at_bounds']) or 'none'}"]
+    lines += [f"- kept nominal, {k}: {why}" for k, why in d.get("rigid_body_kept_nominal", {}).items()] + [""]
     xc = d["input_xcorr_heldout_pressure"]
     lines += ["Residual tests (Ljung) on the held-out pressure replays, before → after the findings: "
               "whiteness (Ljung-Box Q, lags 1-20; χ²(20) 95 % point 31) and the largest cross-correlation "

@@ -28,6 +28,7 @@ class Scored:
     heldout_after: np.ndarray = None
     heldout_null: np.ndarray = None     # held-out RMS of the fitted model with the effect switched off
     rank_gain: float | None = None      # held-out gain over the chambers of all candidates compared with it
+    judged_by: str = "held-out data"    # or the training data's cross-validation (regime not held out)
 
     @property
     def own_gain(self) -> float | None:

