@@ -10,7 +10,8 @@ reference to round-off, effect by effect.
 Arrays (C chambers, ordered a, b per actuator; W windows):
   p, u, travel0, travel1, out (W, C) [Pa, V, m, m, Pa];  rows (C, 8) valve columns
   (pneumatics.valve.VALVE_COLUMNS);  supply_scale, exhaust_scale, valve_leak_m2, external_leak_m2,
-  dead_m3, area_m2 (C,);  piston_leak_m2 (C // 2,);  m_supply (W,) total supply flow of the last
+  external_leak_g, dead_m3, area_m2 (C,);  piston_leak_m2, piston_leak_g (C // 2,) (the *_g are the
+  laminar forms' conductances [kg/(s Pa)], pneumatics.effects.external_leak.laminar_flow);  m_supply (W,) total supply flow of the last
   step [kg/s] (read for the droop, then overwritten);  glob as in :mod:`pneumatics.kernel`.
 """
 from __future__ import annotations
@@ -51,7 +52,7 @@ def _valve(u, row, scale_s, scale_e, leak_s, leak_e, leak_width):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ps, glob, f, jac, m_s):
+def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ext_g, piston_g, ps, glob, f, jac, m_s):
     """Pressure rates f and their diagonal Jacobian jac (C,) at pressures q (C,)."""
     rt, n, room = glob[0] * glob[2], glob[3], glob[9]
     C = q.shape[0]
@@ -67,6 +68,9 @@ def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ps, glob, f, jac, m_s):
             mx, dmx, _ = _orifice(ext[c], q[c], room, glob)
             m[c] -= mx
             dm[c] -= dmx
+        if ext_g[c] > 0.0:  # laminar: G (p^2 - p_room^2) / (2 p_room)
+            m[c] -= ext_g[c] * (q[c] - room) * (q[c] + room) / (2.0 * room)
+            dm[c] -= ext_g[c] * q[c] / room
     for j in range(C // 2):
         if piston[j] > 0.0:
             mab, da, db = _orifice(piston[j], q[2 * j], q[2 * j + 1], glob)
@@ -74,6 +78,13 @@ def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ps, glob, f, jac, m_s):
             m[2 * j + 1] += mab
             dm[2 * j] -= da
             dm[2 * j + 1] += db
+        if piston_g[j] > 0.0:
+            qa, qb = q[2 * j], q[2 * j + 1]
+            mab = piston_g[j] * (qa - qb) * (qa + qb) / (2.0 * room)
+            m[2 * j] -= mab
+            m[2 * j + 1] += mab
+            dm[2 * j] -= piston_g[j] * qa / room
+            dm[2 * j + 1] -= piston_g[j] * qb / room
     for c in range(C):
         f[c] = n / vol[c] * (rt * m[c] - q[c] * vdot[c])
         jac[c] = n / vol[c] * (rt * dm[c] - vdot[c])
@@ -121,7 +132,8 @@ def _thermal(p, T, vol, vdot, a_s, a_e, ps, hA, extra, glob):
 @numba.njit(cache=True, error_model="numpy")
 def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2,
                leak_width_v,
-               external_leak_m2, piston_leak_m2, dead_m3, area_m2, m_supply, glob, out, heat_w_k, T):
+               external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, dead_m3, area_m2, m_supply, glob,
+               out, heat_w_k, T):
     """One linearly implicit ROS2 step (chamber.integrate's stages, fixed dt) for every window.
 
     Chambers with a finite ``heat_w_k`` (C,) [W/K] carry their gas temperature ``T`` (W, C) [K]
@@ -141,11 +153,13 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
                                    valve_leak_exhaust_m2[c], leak_width_v)
             vol[c] = dead_m3[c] + area_m2[c] * 0.5 * (travel0[w, c] + travel1[w, c])
             vdot[c] = area_m2[c] * (travel1[w, c] - travel0[w, c]) / dt
-        _rhs(p[w], vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, ps, glob, f0, jac, m_s)
+        _rhs(p[w], vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, ps, glob,
+             f0, jac, m_s)
         for c in range(C):
             k1[c] = f0[c] / (1.0 - GAMMA * dt * jac[c])
             q1[c] = p[w, c] + dt * k1[c]
-        _rhs(q1, vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, ps, glob, f1, jac1, m_s1)
+        _rhs(q1, vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, ps, glob,
+             f1, jac1, m_s1)
         total = 0.0
         for c in range(C):
             denom = 1.0 - GAMMA * dt * jac[c]
@@ -158,10 +172,17 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
             if not math.isfinite(heat_w_k[c]):
                 continue
             extra = 0.0
+            room = glob[9]
             if external_leak_m2[c] > 0.0:
-                extra -= _orifice(external_leak_m2[c], p[w, c], glob[9], glob)[0]
+                extra -= _orifice(external_leak_m2[c], p[w, c], room, glob)[0]
+            if external_leak_g[c] > 0.0:
+                extra -= external_leak_g[c] * (p[w, c] - room) * (p[w, c] + room) / (2.0 * room)
             j = c // 2
+            pa, pb = p[w, 2 * j], p[w, 2 * j + 1]
+            mab = 0.0
             if piston_leak_m2[j] > 0.0:
-                mab = _orifice(piston_leak_m2[j], p[w, 2 * j], p[w, 2 * j + 1], glob)[0]
-                extra += -mab if c == 2 * j else mab
+                mab += _orifice(piston_leak_m2[j], pa, pb, glob)[0]
+            if piston_leak_g[j] > 0.0:
+                mab += piston_leak_g[j] * (pa - pb) * (pa + pb) / (2.0 * room)
+            extra += -mab if c == 2 * j else mab
             out[w, c], T[w, c] = _thermal(p[w, c], T[w, c], vol[c], vdot[c], a_s[c], a_e[c], ps, heat_w_k[c], extra, glob)

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pneumatics.chamber import GAMMA
+from pneumatics.effects.external_leak import laminar_flow
 from pneumatics.effects.heat_transfer import thermal_step
 from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play
 from pneumatics.medium import orifice_flow
@@ -37,6 +38,8 @@ class PneumaticMods:
     valve_leak_width_v: float = 0.6
     external_leak_m2: np.ndarray = None       # orifice from the chamber to the room
     piston_leak_m2: np.ndarray = None         # (n_act,) orifice between chambers a and b
+    external_leak_g: np.ndarray = None        # laminar leak to the room, conductance [kg/(s Pa)]
+    piston_leak_g: np.ndarray = None          # (n_act,) laminar leak between a and b [kg/(s Pa)]
     hysteresis_v: np.ndarray = None           # play half-width on each valve's command
     lag_s: np.ndarray = None                  # first-order valve lag
     delay_s: np.ndarray = None                # command dead time
@@ -136,8 +139,8 @@ class ChamberModel:
         glob = pack_glob(self.gas, tab.supply_pa, tab.room_pa, FINE_DT, float(mods.supply_droop_pa_per_kg_s))
         return (np.array(tab.valve, float), per(mods.supply_scale), per(mods.exhaust_scale),
                 per(mods.valve_leak_m2), per(mods.valve_leak_exhaust()), float(mods.valve_leak_width_v),
-                per(mods.external_leak_m2),
-                per(mods.piston_leak_m2, C // 2), per(self.dead), per(tab.area), np.zeros(self.W), glob,
+                per(mods.external_leak_m2), per(mods.piston_leak_m2, C // 2),
+                per(mods.external_leak_g), per(mods.piston_leak_g, C // 2), per(self.dead), per(tab.area), np.zeros(self.W), glob,
                 np.full(C, np.nan) if mods.heat_w_k is None else per(mods.heat_w_k))
 
     def travel(self, length):
@@ -152,12 +155,12 @@ class ChamberModel:
 
         Compiled (identification.chamber_kernel); :meth:`step_reference` is its numpy twin.
         Chambers with heat_transfer update their gas temperatures ``self.T`` (W, C) [K]."""
-        rows, ss, es, vl, vle, vw, xl, pl, dead, area, m_sup, glob, heat = self._kernel_args
+        rows, ss, es, vl, vle, vw, xl, pl, xg, pg, dead, area, m_sup, glob, heat = self._kernel_args
         out = np.empty_like(p)
         W = p.shape[0]
         T = np.ascontiguousarray(self.T[:W], float)
         step_batch(np.ascontiguousarray(p, float), np.ascontiguousarray(u, float), np.ascontiguousarray(travel0, float),
-                   np.ascontiguousarray(travel1, float), rows, ss, es, vl, vle, vw, xl, pl, dead, area,
+                   np.ascontiguousarray(travel1, float), rows, ss, es, vl, vle, vw, xl, pl, xg, pg, dead, area,
                    m_sup[:W], glob, out, heat, T)
         self.T[:W] = T
         return out
@@ -188,8 +191,12 @@ class ChamberModel:
                 m_x, dmx, _ = orifice_flow(mods.external_leak_m2, q, room, gas)
                 m = m - m_x
                 dm = dm - dmx
-            if mods.piston_leak_m2 is not None:
-                m_ab, dab_a, dab_b = orifice_flow(mods.piston_leak_m2, q[:, 0::2], q[:, 1::2], gas)  # a -> b
+            if mods.external_leak_g is not None:
+                m_x, dmx, _ = laminar_flow(mods.external_leak_g, q, room, room)
+                m = m - m_x
+                dm = dm - dmx
+            if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
+                m_ab, dab_a, dab_b = _piston_leak(mods, q, room, gas)  # a -> b
                 m = m.copy()
                 dm = dm.copy()
                 m[:, 0::2] -= m_ab
@@ -219,8 +226,10 @@ class ChamberModel:
         extra = np.zeros_like(p)
         if mods.external_leak_m2 is not None:
             extra -= orifice_flow(mods.external_leak_m2, p, tab.room_pa, self.gas)[0]
-        if mods.piston_leak_m2 is not None:
-            m_ab = orifice_flow(mods.piston_leak_m2, p[:, 0::2], p[:, 1::2], self.gas)[0]
+        if mods.external_leak_g is not None:
+            extra -= laminar_flow(mods.external_leak_g, p, tab.room_pa, tab.room_pa)[0]
+        if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
+            m_ab = _piston_leak(mods, p, tab.room_pa, self.gas)[0]
             extra[:, 0::2] -= m_ab
             extra[:, 1::2] += m_ab
         p_th, t_th = thermal_step(p[:, cs], self.T[:, cs], vol[:, cs], vdot[:, cs], a_s[:, cs], a_e[:, cs],
@@ -230,6 +239,17 @@ class ChamberModel:
         p_new[:, cs] = p_th
         self.T[:, cs] = t_th
         return p_new
+
+
+def _piston_leak(mods: PneumaticMods, q, room_pa: float, gas):
+    """(m_ab, d/dp_a, d/dp_b), each (W, n_act): the piston leak a -> b, orifice plus laminar."""
+    zero = np.zeros(q[:, 0::2].shape)
+    out = [zero, zero, zero]
+    if mods.piston_leak_m2 is not None:
+        out = [o + x for o, x in zip(out, orifice_flow(mods.piston_leak_m2, q[:, 0::2], q[:, 1::2], gas))]
+    if mods.piston_leak_g is not None:
+        out = [o + x for o, x in zip(out, laminar_flow(mods.piston_leak_g, q[:, 0::2], q[:, 1::2], room_pa))]
+    return out
 
 
 #: the cylinder force [N], as a fraction of its largest (bore area x supply gauge), over which the

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pneumatics.effects.external_leak import laminar_flow
 from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
 
@@ -59,6 +60,8 @@ def _inputs(exp: Experiment, mods, chambers, u_fine: np.ndarray):
     m = orifice_flow(a_s, tab.supply_pa, p, gas)[0] - orifice_flow(a_e, p, tab.room_pa, gas)[0]
     if mods.external_leak_m2 is not None:
         m = m - orifice_flow(mods.external_leak_m2[cs], p, tab.room_pa, gas)[0]
+    if mods.external_leak_g is not None:
+        m = m - laminar_flow(mods.external_leak_g[cs], p, tab.room_pa, tab.room_pa)[0]
     return p, vol, vdot, np.maximum(m, 0.0), np.minimum(m, 0.0), mods.heat_w_k[cs]
 
 

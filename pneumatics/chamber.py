@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .effects.external_leak import laminar_flow
 from .medium import GasCfg, orifice_flow
 from .tables import FluidTables, valve_areas_table
 from .valve import valve_areas
@@ -128,10 +129,13 @@ def supply_pressure_after(tables: FluidTables, p, a_supply) -> float:
 
 def leak_flows(tables: FluidTables, p):
     """(n_ch,) mass flows [kg/s] into each chamber from the leak effects: to the room
-    (external_leak) and across the piston a -> b (piston_leak).  Equal and opposite across a
+    (external_leak) and across the piston a -> b (piston_leak), orifices and laminar gaps.  Equal and opposite across a
     piston, so a piston leak conserves the cylinder's air."""
     m = -orifice_flow(tables.external_leak_m2, p, tables.room_pa, tables.gas)[0]
     m_ab = orifice_flow(tables.piston_leak_m2, p[0::2], p[1::2], tables.gas)[0]
+    # their laminar forms (effects.external_leak.laminar_flow)
+    m = m - laminar_flow(tables.external_leak_g, p, tables.room_pa, tables.room_pa)[0]
+    m_ab = m_ab + laminar_flow(tables.piston_leak_g, p[0::2], p[1::2], tables.room_pa)[0]
     m[0::2] -= m_ab
     m[1::2] += m_ab
     return m

@@ -5,10 +5,12 @@ more than a 2-DOF ``mj_step``; this kernel costs ~1 us.  ``tests/test_kernel.py`
 against the reference to round-off.
 
 Table layouts (from :meth:`pneumatics.tables.FluidTables.packed`):
-  act  (n_act, 6): area_a, area_b, stroke, length_zero, MuJoCo actuator id (= ctrl index),
-                   piston (a -> b) leak area [m^2] (effect piston_leak, 0 = none)
-  ch   (n_ch, 13): area, dead volume, is_a, actuator index, 8 valve columns,
-                   leak area to the room [m^2] (effect external_leak, 0 = none)
+  act  (n_act, 7): area_a, area_b, stroke, length_zero, MuJoCo actuator id (= ctrl index),
+                   piston (a -> b) leak area [m^2] (effect piston_leak, 0 = none),
+                   its laminar form's conductance [kg/(s Pa)] (0 = none)
+  ch   (n_ch, 14): area, dead volume, is_a, actuator index, 8 valve columns,
+                   leak area to the room [m^2] (effect external_leak, 0 = none),
+                   its laminar form's conductance [kg/(s Pa)] (0 = none)
   fric (n_f, 5):   dof address, Coulomb [N m], extra breakaway [N m], Stribeck velocity
                    [rad/s], viscous [N m s/rad] (effects coulomb_friction, stiction, viscous_friction)
   glob (14,):      R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply, room, dt,
@@ -98,9 +100,15 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
         if ch[i, 12] > 0.0:
             m_x, _, _ = _orifice(ch[i, 12], p[i], glob[9], glob)
             m_extra[i] -= m_x
+        if ch[i, 13] > 0.0:  # laminar: G (p^2 - p_room^2) / (2 p_room) (effects.external_leak)
+            m_extra[i] -= ch[i, 13] * (p[i] - glob[9]) * (p[i] + glob[9]) / (2.0 * glob[9])
     for j in range(act.shape[0]):
         if act[j, 5] > 0.0:
             m_ab, _, _ = _orifice(act[j, 5], p[2 * j], p[2 * j + 1], glob)
+            m_extra[2 * j] -= m_ab
+            m_extra[2 * j + 1] += m_ab
+        if act[j, 6] > 0.0:
+            m_ab = act[j, 6] * (p[2 * j] - p[2 * j + 1]) * (p[2 * j] + p[2 * j + 1]) / (2.0 * glob[9])
             m_extra[2 * j] -= m_ab
             m_extra[2 * j + 1] += m_ab
     for i in range(n_ch):
@@ -185,8 +193,9 @@ def static_transient_fast(p0, volume, a_s, a_e, glob, dt, out):
 def pack(tables, ctrl_index, dt):
     """Kernel tables (act, ch, glob) from :class:`FluidTables`, ctrl indices and the step."""
     act, ch, glob = tables.packed()
-    act = np.ascontiguousarray(np.column_stack([act, np.asarray(ctrl_index, float), tables.piston_leak_m2]))
-    ch = np.ascontiguousarray(np.column_stack([ch, tables.external_leak_m2]))
+    act = np.ascontiguousarray(np.column_stack([act, np.asarray(ctrl_index, float), tables.piston_leak_m2,
+                                                tables.piston_leak_g]))
+    ch = np.ascontiguousarray(np.column_stack([ch, tables.external_leak_m2, tables.external_leak_g]))
     gas = tables.gas
     slope = gas.c_sub * _psi_ref(gas.laminar_ratio, gas.heat_capacity_ratio) / (1.0 - gas.laminar_ratio)
     return act, ch, np.concatenate([glob, [dt, slope, tables.supply_droop_pa_per_kg_s, tables.supply_pa]])

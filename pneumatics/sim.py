@@ -93,6 +93,8 @@ class Simulation:
         self.tables = dataclasses.replace(
             robot.tables, external_leak_m2=self.effects.chamber_array(robot, "external_leak_m2"),
             piston_leak_m2=self.effects.actuator_array(robot, "piston_leak_m2"),
+            external_leak_g=self.effects.chamber_array(robot, "external_leak_laminar_kg_s_pa"),
+            piston_leak_g=self.effects.actuator_array(robot, "piston_leak_laminar_kg_s_pa"),
             supply_droop_pa_per_kg_s=self.effects.supply_droop_pa_per_kg_s,
             dead_volume=robot.tables.dead_volume + line_volume)
         self._lag = self.effects.chamber_array(robot, "valve_lag_s")

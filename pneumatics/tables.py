@@ -32,6 +32,8 @@ class FluidTables:
     valve: np.ndarray           # (n_ch, 8) valve rows, pneumatics.valve.VALVE_COLUMNS
     external_leak_m2: np.ndarray = None  # (n_ch,) leak to the room (effect), 0 = none
     piston_leak_m2: np.ndarray = None    # (n_act,) leak across the piston a -> b (effect)
+    external_leak_g: np.ndarray = None   # (n_ch,) laminar leak to the room, conductance [kg/(s Pa)]
+    piston_leak_g: np.ndarray = None     # (n_act,) laminar leak across the piston [kg/(s Pa)]
     supply_droop_pa_per_kg_s: float = 0.0  # supply pressure drop per kg/s of total supply flow (effect)
 
     def __post_init__(self):
@@ -39,6 +41,10 @@ class FluidTables:
             self.external_leak_m2 = np.zeros(self.area.size)
         if self.piston_leak_m2 is None:
             self.piston_leak_m2 = np.zeros(self.area_a.size)
+        if self.external_leak_g is None:
+            self.external_leak_g = np.zeros(self.area.size)
+        if self.piston_leak_g is None:
+            self.piston_leak_g = np.zeros(self.area_a.size)
 
     @property
     def n_chambers(self) -> int:

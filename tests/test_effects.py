@@ -3,6 +3,7 @@ import dataclasses
 
 import mujoco
 import numpy as np
+import pytest
 
 from pneumatics.effects.effect_set import EffectSet
 from pneumatics.effects.friction import friction_torque
@@ -52,9 +53,11 @@ def test_friction_law_signs_and_stribeck_peak():
     assert abs(tau[3]) > abs(tau[4]) - 0.01 * 1.0  # breakaway above Coulomb at low speed
 
 
-def test_piston_leak_conserves_the_cylinders_air():
+@pytest.mark.parametrize("effects", [EffectSet(piston_leak_m2={"elbow": 5e-9}),
+                                     EffectSet(piston_leak_laminar_kg_s_pa={"elbow": 1e-11})], ids=["orifice", "laminar"])
+def test_piston_leak_conserves_the_cylinders_air(effects):
     robot = leak_free(load_robot("arm2"), n=1.0)
-    sim = Simulation(robot, effects=EffectSet(piston_leak_m2={"elbow": 5e-9}))
+    sim = Simulation(robot, effects=effects)
     sim.model.opt.gravity[:] = 0
     sim.reset(pressure_pa=[3e5, 3e5, 6e5, 2e5])
     tab = sim.tables
@@ -83,6 +86,27 @@ def test_external_leak_vents_a_closed_chamber_to_room_and_not_below():
     trace = np.array(trace)
     assert np.all(np.diff(trace[:, 0]) <= 1.0) and trace[-1, 0] < 2e5 and trace[-1, 0] > 0.99e5
     assert abs(trace[-1, 2] - 6e5) < 0.2e5  # the other cylinder keeps its air
+
+
+def test_laminar_external_leak_follows_the_isothermal_closed_form():
+    """A closed, held, isothermal chamber leaking through a capillary:
+    V/(R T) dp/dt = -G (p^2 - p0^2) / (2 p0) has (p - p0)/(p + p0) = A exp(-G R T t / V)."""
+    robot = leak_free(load_robot("arm2"), n=1.0)
+    tab, gas = robot.tables, robot.fluid.gas
+    sim = Simulation(robot, effects=EffectSet(external_leak_laminar_kg_s_pa={"shoulder.a": 2e-11}))
+    sim.model.dof_damping[:] = 1e6  # hold the joints: static volumes
+    sim.reset(pressure_pa=[6e5, 4e5, 4e5, 4e5])
+    sim.set_command(tab.valve[:, 0])  # valves at null: closed (no null leak in leak_free)
+    x = sim.data.actuator_length[0] - tab.length_zero[0]
+    volume = tab.dead_volume[0] + tab.area_a[0] * x
+    rate = 2e-11 * gas.gas_constant_j_per_kg_k * gas.temperature_k / volume  # [1/s]
+    p0 = tab.room_pa
+    a = (6e5 - p0) / (6e5 + p0)
+    for _ in range(10):
+        sim.step(100)
+        e = a * np.exp(-rate * sim.time)
+        assert sim.pressure[0] == pytest.approx(p0 * (1 + e) / (1 - e), rel=2e-3)
+    assert sim.pressure[1] == pytest.approx(4e5, rel=1e-3)  # nothing else leaks
 
 
 def test_play_operator_minor_loops_close_and_major_loop_width():

@@ -129,6 +129,7 @@ def test_fast_and_reference_agree_with_every_kernel_effect_on(rng):
     effects = EffectSet(friction={"shoulder": {"coulomb_nm": 0.05, "stiction_extra_nm": 0.03, "viscous_nm_s": 0.02}},
                         valve_leak_m2={"elbow.a": 3e-8}, external_leak_m2={"shoulder.b": 2e-8},
                         piston_leak_m2={"elbow": 2e-8}, valve_hysteresis_v={"shoulder.a": 0.3},
+                        external_leak_laminar_kg_s_pa={"elbow.a": 2e-11}, piston_leak_laminar_kg_s_pa={"shoulder": 2e-11},
                         pressure_offset_pa={"elbow.b": 1e4}, angle_offset_rad={"elbow": 0.02},
                         supply_droop_pa_per_kg_s=5e7)
     robot = load_robot("arm2")

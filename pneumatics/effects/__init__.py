@@ -9,8 +9,8 @@ and the mismatch finder tests the same physics as hypotheses
 | --- | --- | --- | --- |
 | coulomb_friction, stiction, viscous_friction | Coulomb + Stribeck + viscous torque (`friction.py`) | kernel, qfrc_applied | yes |
 | valve_leak | spool open both ways near null: extra Gaussian area, alike on both lands or not (`valve_leak_exhaust_m2`) | valve areas | yes |
-| external_leak | orifice from a chamber to the room (`chamber.leak_flows`) | kernel | yes |
-| piston_leak | orifice between chambers a and b, conserving the cylinder's air | kernel | yes |
+| external_leak | orifice from a chamber to the room, or a laminar capillary (`external_leak.laminar_flow`; `chamber.leak_flows`) | kernel | yes (both forms) |
+| piston_leak | orifice or laminar gap between chambers a and b, conserving the cylinder's air | kernel | yes (both forms) |
 | valve_hysteresis | play operator between command and spool (`valve_dynamics.play`) | at each command | yes |
 | valve_lag | first-order lag of the spool (`valve_dynamics.first_order_lag`) | spool stepped per physics step | yes |
 | line_dynamics | tube between valve and chamber: transport delay + its volume | spool delay, dead volume | yes (delay) |

@@ -33,6 +33,12 @@ class EffectSet:
     """chamber -> effective area of a leak to the room [m^2] (external_leak)"""
     piston_leak_m2: dict = field(default_factory=dict)
     """actuator -> effective area of a leak across the piston [m^2] (piston_leak)"""
+    external_leak_laminar_kg_s_pa: dict = field(default_factory=dict)
+    """chamber -> conductance G [kg/(s Pa)] of a laminar (capillary) leak to the room, the
+    external_leak's second form: m = G (p^2 - p_room^2) / (2 p_room) (effects.external_leak)"""
+    piston_leak_laminar_kg_s_pa: dict = field(default_factory=dict)
+    """actuator -> conductance G [kg/(s Pa)] of a laminar leak past the piston seal, a -> b:
+    m = G (p_a^2 - p_b^2) / (2 p_room) (piston_leak's second form)"""
     valve_hysteresis_v: dict = field(default_factory=dict)
     """chamber -> half-width of the play between command and spool [V] (valve_hysteresis)"""
     pressure_offset_pa: dict = field(default_factory=dict)
@@ -129,6 +135,7 @@ class EffectSet:
     @property
     def empty(self) -> bool:
         return not any((self.friction, self.valve_leak_m2, self.valve_leak_exhaust_m2, self.external_leak_m2, self.piston_leak_m2,
+                        self.external_leak_laminar_kg_s_pa, self.piston_leak_laminar_kg_s_pa,
                         self.valve_hysteresis_v, self.pressure_offset_pa, self.angle_offset_rad,
                         self.supply_droop_pa_per_kg_s, self.valve_lag_s, self.line_dynamics, self.end_stop,
                         self.heat_transfer, self.backlash))

@@ -53,6 +53,16 @@ def leak_mass_flow(p, room_pa: float, coefficient, law: str = "laminar", tempera
     raise ValueError(f"unknown leak law {law!r}; valid: {', '.join(LAWS)}")
 
 
+def laminar_flow(conductance_kg_s_pa, p_from, p_to, room_pa: float):
+    """Signed laminar (capillary) mass flow [kg/s] from ``p_from`` to ``p_to`` [Pa] and its
+    derivatives (m, dm/dp_from, dm/dp_to): m = G (p_from^2 - p_to^2) / (2 p_room), the
+    compressible Hagen-Poiseuille law above written with the conductance G at room pressure.
+    The simulator's and the doctor's laminar external and piston leaks (the orifice laws'
+    second form; a worn seal or a porous wall is a long thin gap, not a hole)."""
+    g = np.asarray(conductance_kg_s_pa, float)
+    return (g * (p_from - p_to) * (p_from + p_to) / (2.0 * room_pa), g * p_from / room_pa, -g * p_to / room_pa)
+
+
 def isothermal_time_constant_s(volume_m3: float, conductance_kg_s_pa: float, temperature_k: float,
                                gas_constant: float = 287.0) -> float:
     """tau [s] of the gauge-pressure decay of an isothermal chamber with a linear leak:
