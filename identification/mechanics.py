@@ -249,6 +249,8 @@ def _bounded_fit(A2, y2, names, lo, hi, free, held) -> Fit:
     x = np.array(held, float)
     se = np.full(len(names), np.nan)
     y_f = y2 - A2[:, ~free] @ x[~free]
+    if not free.any():  # everything held (every damping unidentifiable, no effect terms)
+        return Fit(names, x, se, float(y_f @ y_f), y2.size, 1.0, [], y_f)
     r = lsq_linear(A2[:, free], y_f, bounds=(lo[free], hi[free]))
     x[free] = r.x
     res = y_f - A2[:, free] @ r.x
