@@ -195,7 +195,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
                 if h.label not in tried
                 and not (h.family == "pressure_sensor_offset" and h.where["actuator"] in offset_acts)]
         scored, base = score_mechanical(td, exp, hyps, base_extra)
-        block = max(1, int(round(MECH_BLOCK_S * held.rate_hz)))
+        block = _mech_block(held)
         base_h = torque_rms(td_h, base, None if base_extra is None else _regs(kept_mech, held, td_h), block)
         for s in scored:
             _heldout_torque(s, held, td_h, kept_mech, base_extra, base_h, block, exp, td)
@@ -444,18 +444,19 @@ def _heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block,
 
 
 def _crossval_torque(s: Scored, exp, td, base_extra, block):
-    import dataclasses
     extra, names, bounds = stack_terms(base_extra, s.hyp.regressor(exp, td), s.hyp)
-    half = np.arange(td.valid.size) < td.valid.size // 2
     before, after = 0.0, 0.0
-    for part in (half, ~half):
-        fit_on = dataclasses.replace(td, valid=td.valid & part)
-        test_on = dataclasses.replace(td, valid=td.valid & ~part)
+    for fit_on, test_on in td.two_fold():
         base = fit_rigid_body(fit_on, *base_extra) if base_extra else fit_rigid_body(fit_on)
         before = before + torque_rms(test_on, base, None if base_extra is None else base_extra[0], block) ** 2
         after = after + torque_rms(test_on, fit_rigid_body(fit_on, extra, names, bounds), extra, block) ** 2
     s.heldout_before, s.heldout_after = np.sqrt(before / 2), np.sqrt(after / 2)
     s.judged_by = "two-fold cross-validation on the training data (the held-out motions never reach its regime)"
+
+
+def _mech_block(exp) -> int:
+    """Samples in one MECH_BLOCK_S mean of the torque residual."""
+    return max(1, int(round(MECH_BLOCK_S * exp.rate_hz)))
 
 
 def _joint_residual(td, rfit, j: int) -> np.ndarray:
@@ -469,7 +470,7 @@ def _outside_torque(robot, held, td_h, rfit, j: int, best: Finding, yard_gain: f
     takes up far better than the library's best effect (``best``)."""
     r = _joint_residual(td_h, rfit, j)
     # in 0.1 s means: the raw equation error is mostly noise from differentiating the angles twice
-    block = max(1, int(round(MECH_BLOCK_S * held.rate_hz)))
+    block = _mech_block(held)
     r = np.convolve(r, np.ones(block) / block, mode="same")
     name, _, _ = locate_regime(r, joint_regimes(held, j))
     return {"where": {"joint": robot.joint_names[j]}, "regime": name, "residual": "torque",

@@ -163,17 +163,12 @@ def _two_fold_rss(td, reg):
     """Residual sum of squares of the torque balance with extra regressors ``reg``, each half of
     the training samples predicted by a fit to the other half: a stop placed where only a few
     impacts happen to fit well does not generalise, and this says so before held-out data do."""
-    import dataclasses
-
     from .mechanics import fit_rigid_body
 
-    n = td.valid.size
-    half = np.arange(n) < n // 2
     total = 0.0
-    for fit_part in (half, ~half):
-        f = fit_rigid_body(dataclasses.replace(td, valid=td.valid & fit_part), reg, ["k", "b"],
-                           (np.zeros(2), np.full(2, np.inf)))
-        test = td.valid & ~fit_part
+    for fit_on, test_on in td.two_fold():
+        f = fit_rigid_body(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)))
+        test = test_on.valid
         A = np.concatenate([td.regressors[test], reg[test]], axis=2)
         res = td.residual[test] - np.einsum("njp,p->nj", A, f.values)
         total += float(np.sum(res ** 2))

@@ -26,7 +26,7 @@ Swevers et al. 2007, "Dynamic model identification for industrial robots", IEEE 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -87,7 +87,14 @@ class TorqueData:
             y[a:b] = sosfiltfilt(sos, x[a:b], axis=0)
         return y[self.decimation_index()]
 
+    def two_fold(self) -> list:
+        """[(fit on, test on)] x 2: the valid samples split at the middle, each half to be
+        predicted by a fit to the other (two-fold cross-validation)."""
+        half = np.arange(self.valid.size) < self.valid.size // 2
+        return [(replace(self, valid=self.valid & part), replace(self, valid=self.valid & ~part)) for part in (half, ~half)]
+
     def decimation_index(self) -> np.ndarray:
+        """Indices (M,) of the samples a filtered fit uses (see ``decimate``)."""
         reach = int(np.ceil(self.rate_hz / self.lowpass_hz))  # >99.9 % of the filter's impulse response
         bad = ~self.valid.copy()
         for b in (0, *self.breaks, bad.size):

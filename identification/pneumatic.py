@@ -58,6 +58,36 @@ class PneumaticMods:
         asymmetric hypothesis set one, else the supply side's (the symmetric leak)."""
         return self.valve_leak_m2 if self.valve_leak_exhaust_m2 is None else self.valve_leak_exhaust_m2
 
+    def valve_leak_areas(self, u, null_v, cs=slice(None)):
+        """(supply, exhaust) extra areas [m^2] of the valve_leak at commands ``u`` [V] of the
+        chambers ``cs`` whose valves' null is ``null_v``: Gaussian in u - null; (0, 0) if none."""
+        if self.valve_leak_m2 is None and self.valve_leak_exhaust_m2 is None:
+            return 0.0, 0.0
+        g = np.exp(-((u - null_v) / self.valve_leak_width_v) ** 2)
+        return (0.0 if self.valve_leak_m2 is None else self.valve_leak_m2[cs] * g), self.valve_leak_exhaust()[cs] * g
+
+    def external_leak_flow(self, p, room_pa: float, gas, cs=slice(None)):
+        """(m, dm/dp) [kg/s, kg/(s Pa)] out of the chambers ``cs`` at pressures ``p`` through the
+        external leak, its orifice and laminar forms together (0, 0 if none)."""
+        m = dm = 0.0
+        if self.external_leak_m2 is not None:
+            m_x, dmx, _ = orifice_flow(self.external_leak_m2[cs], p, room_pa, gas)
+            m, dm = m + m_x, dm + dmx
+        if self.external_leak_g is not None:
+            m_x, dmx, _ = laminar_flow(self.external_leak_g[cs], p, room_pa, room_pa)
+            m, dm = m + m_x, dm + dmx
+        return m, dm
+
+    def piston_leak_flow(self, q, room_pa: float, gas):
+        """(m_ab, d/dp_a, d/dp_b), each (W, n_act), from pressures q (W, C): the piston leak
+        a -> b, its orifice and laminar forms together."""
+        out = [np.zeros(q[:, 0::2].shape)] * 3
+        if self.piston_leak_m2 is not None:
+            out = [o + x for o, x in zip(out, orifice_flow(self.piston_leak_m2, q[:, 0::2], q[:, 1::2], gas))]
+        if self.piston_leak_g is not None:
+            out = [o + x for o, x in zip(out, laminar_flow(self.piston_leak_g, q[:, 0::2], q[:, 1::2], room_pa))]
+        return out
+
     def copy(self, **changes) -> "PneumaticMods":
         import dataclasses
         out = dataclasses.replace(self)
@@ -172,10 +202,8 @@ class ChamberModel:
         a_s, a_e = valve_areas(u.ravel(), self.rows[: W * C])
         a_s = a_s.reshape(W, C) * mods.supply_scale
         a_e = a_e.reshape(W, C) * mods.exhaust_scale
-        if mods.valve_leak_m2 is not None or mods.valve_leak_exhaust_m2 is not None:
-            g = np.exp(-((u - tab.valve[:, 0]) / mods.valve_leak_width_v) ** 2)
-            a_s = a_s + (0.0 if mods.valve_leak_m2 is None else mods.valve_leak_m2) * g
-            a_e = a_e + mods.valve_leak_exhaust() * g
+        leak_s, leak_e = mods.valve_leak_areas(u, tab.valve[:, 0])
+        a_s, a_e = a_s + leak_s, a_e + leak_e
         vol = self.dead + tab.area * 0.5 * (travel0 + travel1)
         vdot = tab.area * (travel1 - travel0) / FINE_DT
         droop = mods.supply_droop_pa_per_kg_s > 0
@@ -187,16 +215,11 @@ class ChamberModel:
             m_e, dme, _ = orifice_flow(a_e, q, room, gas)
             m = m_s - m_e
             dm = dms - dme
-            if mods.external_leak_m2 is not None:
-                m_x, dmx, _ = orifice_flow(mods.external_leak_m2, q, room, gas)
-                m = m - m_x
-                dm = dm - dmx
-            if mods.external_leak_g is not None:
-                m_x, dmx, _ = laminar_flow(mods.external_leak_g, q, room, room)
-                m = m - m_x
-                dm = dm - dmx
+            m_x, dmx = mods.external_leak_flow(q, room, gas)
+            m = m - m_x
+            dm = dm - dmx
             if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
-                m_ab, dab_a, dab_b = _piston_leak(mods, q, room, gas)  # a -> b
+                m_ab, dab_a, dab_b = mods.piston_leak_flow(q, room, gas)  # a -> b
                 m = m.copy()
                 dm = dm.copy()
                 m[:, 0::2] -= m_ab
@@ -224,12 +247,9 @@ class ChamberModel:
         """The heat_transfer chambers by the energy equation (pneumatics.effects.heat_transfer)."""
         cs, mods, tab = self.thermal, self.mods, self.tab
         extra = np.zeros_like(p)
-        if mods.external_leak_m2 is not None:
-            extra -= orifice_flow(mods.external_leak_m2, p, tab.room_pa, self.gas)[0]
-        if mods.external_leak_g is not None:
-            extra -= laminar_flow(mods.external_leak_g, p, tab.room_pa, tab.room_pa)[0]
+        extra -= mods.external_leak_flow(p, tab.room_pa, self.gas)[0]
         if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
-            m_ab = _piston_leak(mods, p, tab.room_pa, self.gas)[0]
+            m_ab = mods.piston_leak_flow(p, tab.room_pa, self.gas)[0]
             extra[:, 0::2] -= m_ab
             extra[:, 1::2] += m_ab
         p_th, t_th = thermal_step(p[:, cs], self.T[:, cs], vol[:, cs], vdot[:, cs], a_s[:, cs], a_e[:, cs],
@@ -239,17 +259,6 @@ class ChamberModel:
         p_new[:, cs] = p_th
         self.T[:, cs] = t_th
         return p_new
-
-
-def _piston_leak(mods: PneumaticMods, q, room_pa: float, gas):
-    """(m_ab, d/dp_a, d/dp_b), each (W, n_act): the piston leak a -> b, orifice plus laminar."""
-    zero = np.zeros(q[:, 0::2].shape)
-    out = [zero, zero, zero]
-    if mods.piston_leak_m2 is not None:
-        out = [o + x for o, x in zip(out, orifice_flow(mods.piston_leak_m2, q[:, 0::2], q[:, 1::2], gas))]
-    if mods.piston_leak_g is not None:
-        out = [o + x for o, x in zip(out, laminar_flow(mods.piston_leak_g, q[:, 0::2], q[:, 1::2], room_pa))]
-    return out
 
 
 #: the cylinder force [N], as a fraction of its largest (bore area x supply gauge), over which the

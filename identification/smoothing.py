@@ -40,8 +40,9 @@ def spline_cutoff_hz(lam: float, dt_s: float) -> float:
     halves a sinusoid's amplitude.  Its frequency response is H(w) = 1 / (1 + lam dt w^4)
     (Reinsch's penalised sum of squares as a continuous filter; Silverman 1984, "Spline
     smoothing: the equivalent variable kernel method", Ann. Stat. 12), so the half-amplitude
-    point is w = (lam dt)^(-1/4) (the sum over samples is 1/dt times the integral).  Checked against the spline's measured response on arm2
-    angles (15.4 Hz predicted, 0.77 gain at 12 Hz measured vs 0.73)."""
+    point is w = (lam dt)^(-1/4) (the sum over samples is 1/dt times the integral).  Checked
+    against the spline's measured response on arm2 angles (15.4 Hz predicted, 0.77 gain at
+    12 Hz measured vs 0.73) and in tests/test_rigid_body_calibration.py."""
     return float((max(lam, 1e-300) * dt_s) ** -0.25 / (2 * np.pi))
 
 

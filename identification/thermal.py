@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from pneumatics.effects.external_leak import laminar_flow
 from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
 
@@ -52,16 +51,10 @@ def _inputs(exp: Experiment, mods, chambers, u_fine: np.ndarray):
     a_s, a_e = valve_areas(u_fine[:, cs].ravel(), rows)
     a_s = a_s.reshape(F, -1) * mods.supply_scale[cs]
     a_e = a_e.reshape(F, -1) * mods.exhaust_scale[cs]
-    if mods.valve_leak_m2 is not None or mods.valve_leak_exhaust_m2 is not None:
-        g = np.exp(-((u_fine[:, cs] - tab.valve[cs, 0]) / mods.valve_leak_width_v) ** 2)
-        if mods.valve_leak_m2 is not None:
-            a_s = a_s + mods.valve_leak_m2[cs] * g
-        a_e = a_e + mods.valve_leak_exhaust()[cs] * g
+    leak_s, leak_e = mods.valve_leak_areas(u_fine[:, cs], tab.valve[cs, 0], cs)
+    a_s, a_e = a_s + leak_s, a_e + leak_e
     m = orifice_flow(a_s, tab.supply_pa, p, gas)[0] - orifice_flow(a_e, p, tab.room_pa, gas)[0]
-    if mods.external_leak_m2 is not None:
-        m = m - orifice_flow(mods.external_leak_m2[cs], p, tab.room_pa, gas)[0]
-    if mods.external_leak_g is not None:
-        m = m - laminar_flow(mods.external_leak_g[cs], p, tab.room_pa, tab.room_pa)[0]
+    m = m - mods.external_leak_flow(p, tab.room_pa, gas, cs)[0]
     return p, vol, vdot, np.maximum(m, 0.0), np.minimum(m, 0.0), mods.heat_w_k[cs]
 
 
