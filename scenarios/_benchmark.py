@@ -52,6 +52,32 @@ def common_metrics(rows: list[dict], min_r2_key: str) -> dict:
     }
 
 
+def confusion_matrix(rows: list[dict], hidden: list[str], cols: list[str], same=lambda named, hid: named == hid) -> np.ndarray:
+    """Counts (len(hidden), len(cols)): a case's hidden families (``row["families"]``, ["none"]
+    for a null case) in rows, what the doctor named (``row["named"]``, empty: "none") in
+    columns; a name not in ``cols`` goes to the last column.
+
+    A hidden family the doctor named (``same``) goes on its name's column; the names left over
+    are shared among the hidden families it missed or, if it missed none, among all of the
+    case's rows, so an extra finding beside a right one shows off the diagonal of a hit row."""
+    mat = np.zeros((len(hidden), len(cols)))
+    col = lambda n: cols.index(n) if n in cols else len(cols) - 1  # noqa: E731
+    for r in rows:
+        named = r["named"] or ["none"]
+        fams = r["families"]
+        extra = [n for n in named if not any(same(n, t) for t in fams)]
+        hits = {t: next((n for n in named if same(n, t)), None) for t in fams}
+        missed = [t for t, n in hits.items() if n is None]
+        for t, n in hits.items():
+            if n is not None:
+                mat[hidden.index(t), col(n)] += 1
+        share = extra or ["none"]
+        for t in missed or (fams if extra else []):
+            for n in share:
+                mat[hidden.index(t), col(n)] += 1 / len(share) / (1 if missed else len(fams))
+    return mat
+
+
 def plot_confusion(ctx, mat: np.ndarray, hidden: list[str], named: list[str], title: str) -> None:
     """confusion_matrix.png: ``mat`` (len(hidden), len(named)) counts, hidden families in rows,
     what the doctor named in columns; fractions where a case's names were shared."""

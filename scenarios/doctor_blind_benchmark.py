@@ -21,7 +21,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 
 from identification.doctor import diagnose
 from pneumatics.io import atomic_write_json
@@ -29,7 +28,7 @@ from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import common_metrics, plot_confusion, print_cases
+from ._benchmark import common_metrics, confusion_matrix, plot_confusion, print_cases
 from ._benchmark import judge as judge_effects
 from ._cases import BENCHMARK_FAMILIES, make_case
 from .common import main
@@ -115,21 +114,9 @@ def run(ctx):
 def _confusion(rows, ctx):
     fams = list(BENCHMARK_FAMILIES) + ["none"]
     cols = fams + ["other"]
-    mat = np.zeros((len(fams), len(cols)))
-    for r in rows:
-        named = r["named"] or ["none"]
-        # each hidden family is matched to its own name when the doctor said it; the names
-        # left over are shared among the hidden families that were not matched
-        matched = [t for t in r["families"] if any(_same(n, t, False) for n in named)]
-        left = [n for n in named if not any(_same(n, t, False) for t in r["families"])] or ["none"]
-        for t in r["families"]:
-            if t in matched:
-                n = next(n for n in named if _same(n, t, False))
-                mat[fams.index(t), cols.index(n)] += 1
-            else:
-                for n in left:
-                    mat[fams.index(t), cols.index(n) if n in cols else -1] += 1 / len(left)
-    plot_confusion(ctx, mat, fams, cols, "doctor blind benchmark: confusion matrix")
+    mat = confusion_matrix(rows, fams, cols, lambda n, t: _same(n, t, False))
+    plot_confusion(ctx, mat, fams, cols, "doctor blind benchmark: confusion matrix\n"
+                   "(an extra finding beside a right one counts in its row too)")
 
 
 if __name__ == "__main__":

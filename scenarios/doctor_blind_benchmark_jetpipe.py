@@ -31,7 +31,7 @@ from pneumatics.io import atomic_write_json
 from pneumatics.recording import read_csv
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import common_metrics, plot_confusion, print_cases
+from ._benchmark import common_metrics, confusion_matrix, plot_confusion, print_cases
 from ._benchmark import judge as judge_effects
 from ._jetpipe_cases import FAMILIES, make_case
 from .common import main
@@ -116,22 +116,11 @@ def run(ctx):
 def _confusion(rows, ctx):
     fams = list(FAMILIES) + ["none"]
     cols = fams + ["unexplained"]
-    mat = np.zeros((len(fams), len(cols)))
-    for r in rows:
-        # a finding that lists a hidden family as a not-separable alternative counts for it; each
-        # hidden family gets its own name when the doctor said it, the names left over are shared
-        # among the hidden families that were not matched (as doctor_blind_benchmark.py does);
-        # when every hidden family was matched, extra names are shown in their rows too
-        named = [next((t for t in r["families"] if t in [f["effect"], *f["alternatives"]]), f["effect"])
-                 for f in r["findings"]]
-        named = named or (["unexplained"] if r["unexplained"] else ["none"])
-        extra = [n for n in named if n not in r["families"]]
-        missed = [t for t in r["families"] if t not in named]
-        for t in r["families"]:
-            if t in named:
-                mat[fams.index(t), cols.index(t)] += 1
-            for n in (extra or ["none"]) if t in missed else ([] if missed else extra):
-                mat[fams.index(t), cols.index(n)] += 1 / len(extra or ["none"]) if t in missed else 1 / len(r["families"])
+    # a finding that lists a hidden family as a not-separable alternative counts for it; a case
+    # with no finding but unexplained residual is shown in the unexplained column
+    named = [[next((t for t in r["families"] if t in [f["effect"], *f["alternatives"]]), f["effect"])
+              for f in r["findings"]] or (["unexplained"] if r["unexplained"] else []) for r in rows]
+    mat = confusion_matrix([{"families": r["families"], "named": n} for r, n in zip(rows, named)], fams, cols)
     plot_confusion(ctx, mat, fams, cols, "jet-pipe doctor blind benchmark: confusion matrix\n"
                    "(an extra finding beside a right one counts in its row too)")
 

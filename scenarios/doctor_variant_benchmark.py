@@ -28,7 +28,7 @@ from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import common_metrics, plot_confusion, print_cases
+from ._benchmark import common_metrics, confusion_matrix, plot_confusion, print_cases
 from ._variantsim.cases import make_case
 from ._variantsim.effects import FAMILIES
 from .common import main
@@ -123,22 +123,7 @@ def run(ctx):
 def _confusion(rows, ctx):
     fams = list(FAMILIES) + ["none"]
     cols = fams + ["other"]
-    mat = np.zeros((len(fams), len(cols)))
-    for r in rows:
-        named = r["named"] or ["none"]
-        # a hidden family the doctor named goes on the diagonal; the names left over are
-        # shared among the hidden families it missed, or, if it missed none, among the hit
-        # rows (an extra finding beside a correct one shows off the diagonal of a hit row)
-        extra = [n for n in named if not any(_same(n, t, False) for t in r["families"])]
-        hits = {t: next((n for n in named if _same(n, t, False)), None) for t in r["families"]}
-        missed = [t for t, n in hits.items() if n is None]
-        for t, n in hits.items():
-            if n is not None:
-                mat[fams.index(t), cols.index(n)] += 1
-        for t in missed or (r["families"] if extra else []):
-            for n in extra or ["none"]:
-                mat[fams.index(t), cols.index(n) if n in cols else -1] += 1 / len(extra or ["none"]) / (
-                    1 if missed else len(r["families"]))
+    mat = confusion_matrix(rows, fams, cols, lambda n, t: _same(n, t, False))
     plot_confusion(ctx, mat, fams, cols, "doctor on the variant simulator (other functional forms): confusion matrix\n"
                    "(an extra finding beside a right one counts in its row too)")
 
