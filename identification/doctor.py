@@ -97,6 +97,7 @@ class Finding:
     nrmse: dict = field(default_factory=dict)
     evidence: str = ""
     alternative_places: list = field(default_factory=list)  # places these sensors cannot tell apart
+    regime_rows: np.ndarray | None = None  # (N,) bool: the held-out samples in its regime (None: throughout)
 
 
 def _say(progress, msg):
@@ -262,11 +263,14 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             f.inclusion = _bootstrap_inclusion(e_before, e_after, PNEU_KEEP)
             reg = chamber_regimes(held, cs[0])
             f.regime, lift, share = locate_regime(r, {k: v[idx_h] for k, v in reg.items()})
+            f.regime_rows = reg.get(f.regime)
             f.windows = windows(t_h, r)
         else:
             j = f.scored.hyp.joint
             r = _joint_residual(td_h, rfit, j)
-            f.regime, lift, share = locate_regime(r, joint_regimes(held, j))
+            regs = joint_regimes(held, j)
+            f.regime, lift, share = locate_regime(r, regs)
+            f.regime_rows = regs.get(f.regime)
             f.windows = windows(held.t, r)
             full = _regs(kept_mech, held, td_h)
             after = td_h.residual[:, j] - np.einsum("np,p->n", np.concatenate([td_h.regressors, full], axis=2)[:, j],
@@ -317,6 +321,11 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     for f in findings:
         ch = max(_channels(f, robot), key=lambda c: nb[c] - nf[c])
         f.nrmse = {"before": nb[ch], "after": nf[ch], "channel": ch}
+        if f.regime_rows is not None and np.any(f.regime_rows[base_replay.index]):
+            f.nrmse["in_regime"] = {"before": base_replay.nrmse(f.regime_rows)[ch],
+                                    "after": final_replay.nrmse(f.regime_rows)[ch]}
+        else:  # "throughout": the regime is the whole held-out data
+            f.nrmse["in_regime"] = {"before": nb[ch], "after": nf[ch]}
         f.evidence = _evidence(f)
     tests = _residual_tests(robot, held, win_h, res_h, res_base_h)
     report = {
@@ -619,6 +628,7 @@ def _finding_json(f: Finding) -> dict:
         "parameters": f.params,
         "heldout_nrmse": {"before": f.nrmse.get("before"), "after": f.nrmse.get("after")},
         "heldout_channel": f.nrmse.get("channel"),
+        "heldout_nrmse_in_regime": f.nrmse.get("in_regime"),
         "heldout_equation_error_reduction": f.heldout_gain,
         "alternatives": f.alternatives,
         "alternative_places": f.alternative_places,

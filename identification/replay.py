@@ -95,15 +95,21 @@ class MechMods:
 
 @dataclass
 class ReplayResult:
-    """Predicted vs measured DAQ samples over all windows: dicts channel -> (M,) arrays."""
+    """Predicted vs measured DAQ samples over all windows: dicts channel -> (M,) arrays;
+    ``times`` (M,) and ``index`` (M,), each replayed sample's time and row in the experiment."""
 
     predicted: dict
     measured: dict
     times: np.ndarray
+    index: np.ndarray = None
 
-    def nrmse(self) -> dict:
-        return {c: float(np.sqrt(np.mean((self.predicted[c] - self.measured[c]) ** 2)) / max(np.std(self.measured[c]), 1e-12))
-                for c in self.predicted}
+    def nrmse(self, rows: np.ndarray | None = None) -> dict:
+        """Per channel: RMS error over the replayed samples (those whose experiment row is
+        True in ``rows``, (N,) bool, if given) / the s.d. of the measured channel over all of
+        them, so an NRMSE inside a regime is on the same scale as the overall one."""
+        m = slice(None) if rows is None else rows[self.index]
+        return {c: float(np.sqrt(np.mean((self.predicted[c][m] - self.measured[c][m]) ** 2))
+                         / max(np.std(self.measured[c]), 1e-12)) for c in self.predicted}
 
     def r2(self) -> dict:
         return {c: 1.0 - v ** 2 for c, v in self.nrmse().items()}
@@ -187,4 +193,4 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
         pred[f"q.{name}"], meas[f"q.{name}"] = out_q[:, :, j].ravel(), exp.q[idx, j].ravel()
     for c, (a, ch) in enumerate(robot.chamber_names):
         pred[f"p_{ch}.{a}"], meas[f"p_{ch}.{a}"] = out_p[:, :, c].ravel(), exp.p[idx, c].ravel()
-    return ReplayResult(pred, meas, exp.t[idx].ravel())
+    return ReplayResult(pred, meas, exp.t[idx].ravel(), idx.ravel())

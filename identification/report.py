@@ -26,8 +26,11 @@ def summary(report: dict) -> str:
         win = ", ".join(f"{a:.0f}–{b:.0f} s" for a, b in f["windows"][:3]) or "spread out"
         lines.append(f"     when: {f['regime']}; worst windows {win}")
         if n["before"] is not None:
+            nr = f.get("heldout_nrmse_in_regime")
+            inside = (f"; in its regime {nr['before']:.3f} → {nr['after']:.3f}"
+                      if nr and f["regime"] != "throughout" else "")
             lines.append(f"     held-out NRMSE {f['heldout_channel']}: {n['before']:.3f} → {n['after']:.3f} "
-                         f"({100 * (1 - n['after'] / max(n['before'], 1e-12)):.0f} % better)")
+                         f"({100 * (1 - n['after'] / max(n['before'], 1e-12)):.0f} % better{inside})")
     for u in report["unexplained"]:
         where = " ".join(f"{k} {v}" for k, v in u["where"].items())
         lines.append(f"  unexplained at {where}, {u['regime']}: {100 * u['share_of_residual']:.0f} % of the residual")
@@ -140,13 +143,15 @@ def _markdown(report, pngs) -> str:
     lines = [f"# pneumasim doctor report — {report['model']}", "", "```", summary(report), "```", ""]
     lines += ["## Findings", ""]
     if report["findings"]:
-        lines += ["| effect | where | regime | parameters | held-out NRMSE before → after | inclusion |",
-                  "| --- | --- | --- | --- | --- | --- |"]
+        lines += ["| effect | where | regime | parameters | held-out NRMSE before → after | in the regime | inclusion |",
+                  "| --- | --- | --- | --- | --- | --- | --- |"]
         for f in report["findings"]:
             par = "; ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in f["parameters"].items())
-            n = f["heldout_nrmse"]
+            n, nr = f["heldout_nrmse"], f.get("heldout_nrmse_in_regime")
+            inside = f"{nr['before']:.4f} → {nr['after']:.4f}" if nr else "—"
             lines.append(f"| {f['effect']} | {json.dumps(f['where'])} | {f['regime']} | {par} | "
-                         f"{f['heldout_channel']}: {n['before']:.4f} → {n['after']:.4f} | {f['inclusion_probability']:.2f} |")
+                         f"{f['heldout_channel']}: {n['before']:.4f} → {n['after']:.4f} | {inside} | "
+                         f"{f['inclusion_probability']:.2f} |")
         lines.append("")
         for f in report["findings"]:
             lines.append(f"- {f['evidence']}.")

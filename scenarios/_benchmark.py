@@ -24,6 +24,12 @@ def judge(effects: list[dict], report: dict, same=lambda named, hidden: named ==
             "named": [f["effect"] for f in report["findings"]]}
 
 
+def nrmse_reductions(findings: list[dict], key: str = "heldout_nrmse") -> list[float]:
+    """1 - after / before of each finding's held-out NRMSE on its channel (``key``
+    "heldout_nrmse": the whole held-out data; "heldout_nrmse_in_regime": inside its regime)."""
+    return [1 - f[key]["after"] / f[key]["before"] for f in findings if f.get(key) and f[key]["before"]]
+
+
 def print_cases(rows: list[dict]) -> None:
     for r in rows:
         print(f"  case {r['seed']} {'+'.join(r['families'])}: named {r['named'] or ['nothing']}"
@@ -32,13 +38,15 @@ def print_cases(rows: list[dict]) -> None:
 
 def common_metrics(rows: list[dict], min_r2_key: str) -> dict:
     """effect_accuracy (all hidden families named, no other), two_effect_accuracy, location_accuracy
-    (among cases with the families right), median_heldout_nrmse_reduction (finding's channel),
+    (among cases with the families right), median_heldout_nrmse_reduction (finding's channel;
+    _in_regime: inside the finding's located regime),
     null_false_discovery_rate, seconds_per_case, concealed_fraction (``min_r2_key`` >= 0.9)."""
     effect_rows = [r for r in rows if r["families"] != ["none"]]
     null_rows = [r for r in rows if r["families"] == ["none"]]
     two_rows = [r for r in effect_rows if len(r["families"]) > 1]
     fam_ok = [r for r in effect_rows if r["family_ok"]]
     reductions = [x for r in effect_rows for x in r["nrmse_reduction"]]
+    in_regime = [x for r in effect_rows for x in r.get("nrmse_reduction_in_regime", [])]
     return {
         "cases": len(rows),
         "effect_accuracy": len(fam_ok) / max(len(effect_rows), 1),
@@ -46,6 +54,7 @@ def common_metrics(rows: list[dict], min_r2_key: str) -> dict:
         **({"two_effect_accuracy": sum(r["family_ok"] for r in two_rows) / len(two_rows)} if two_rows else {}),
         "location_accuracy": sum(r["location_ok"] for r in fam_ok) / max(len(fam_ok), 1),
         "median_heldout_nrmse_reduction": float(np.median(reductions)) if reductions else 0.0,
+        "median_heldout_nrmse_reduction_in_regime": float(np.median(in_regime)) if in_regime else 0.0,
         "null_false_discovery_rate": sum(r["verdict"] != "no_significant_mismatch" for r in null_rows) / max(len(null_rows), 1),
         "seconds_per_case": float(np.mean([r["seconds"] for r in rows])),
         "concealed_fraction": float(np.mean([r[min_r2_key] >= 0.9 for r in effect_rows])) if effect_rows else 1.0,

@@ -28,7 +28,7 @@ from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import common_metrics, confusion_matrix, plot_confusion, print_cases
+from ._benchmark import common_metrics, confusion_matrix, nrmse_reductions, plot_confusion, print_cases
 from ._benchmark import judge as judge_effects
 from ._cases import BENCHMARK_FAMILIES, make_case
 from .common import main
@@ -82,12 +82,11 @@ def blind_case(case: dict) -> dict:
     report.pop("_replays", None)
     j = judge(truth, report)
     j_strict = judge(truth, report, strict=True)
-    red = [1 - f["heldout_nrmse"]["after"] / f["heldout_nrmse"]["before"] for f in report["findings"]
-           if f["heldout_nrmse"]["before"]]
+    red, red_reg = nrmse_reductions(report["findings"]), nrmse_reductions(report["findings"], "heldout_nrmse_in_regime")
     return {"seed": seed, "families": fams or ["none"], "where": [e["where"] for e in truth["effects"]],
             "verdict": report["verdict"], "named": j["named"], "family_ok": j["family_ok"],
             "family_ok_strict": j_strict["family_ok"],
-            "location_ok": j["location_ok"], "location_ok_strict": j_strict["location_ok"], "nrmse_reduction": red, "seconds": secs,
+            "location_ok": j["location_ok"], "location_ok_strict": j_strict["location_ok"], "nrmse_reduction": red, "nrmse_reduction_in_regime": red_reg, "seconds": secs,
             "min_r2_calibrated": min(report["baseline"]["heldout_r2"].values()),
             "unexplained": [u["where"] for u in report["unexplained"]]}
 

@@ -31,7 +31,7 @@ from pneumatics.io import atomic_write_json
 from pneumatics.recording import read_csv
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import common_metrics, confusion_matrix, plot_confusion, print_cases
+from ._benchmark import common_metrics, confusion_matrix, nrmse_reductions, plot_confusion, print_cases
 from ._benchmark import judge as judge_effects
 from ._jetpipe_cases import FAMILIES, make_case
 from .common import main
@@ -80,10 +80,7 @@ def blind_case(case: dict) -> dict:
         secs = time.perf_counter() - t0
     report.pop("_plot", None)
     j = judge(truth, report)
-    red = [1 - f["heldout_nrmse"]["after"] / f["heldout_nrmse"]["before"] for f in report["findings"]
-           if f["heldout_nrmse"]["before"]]
-    red_reg = [1 - f["heldout_nrmse_in_regime"]["after"] / f["heldout_nrmse_in_regime"]["before"]
-               for f in report["findings"] if f["heldout_nrmse_in_regime"]["before"]]
+    red, red_reg = nrmse_reductions(report["findings"]), nrmse_reductions(report["findings"], "heldout_nrmse_in_regime")
     return {"seed": seed, "families": fams or ["none"], "where": [e["where"] for e in truth["effects"]],
             "truth": truth["effects"], "verdict": report["verdict"], "named": j["named"],
             "findings": [{k: f[k] for k in ("effect", "where", "parameters", "alternatives", "alternative_places",
@@ -103,12 +100,9 @@ def run(ctx):
     print_cases(rows)
     atomic_write_json(ctx.out / "cases.json", rows)
     _confusion(rows, ctx)
-    effect_rows = [r for r in rows if r["families"] != ["none"]]
     incl = [f["inclusion_probability"] for r in rows for f in r["findings"]]
-    reductions_reg = [x for r in effect_rows for x in r["nrmse_reduction_in_regime"]]
     return {
         **common_metrics(rows, "min_r2_nominal"),
-        "median_heldout_nrmse_reduction_in_regime": float(np.median(reductions_reg)) if reductions_reg else 0.0,
         "median_inclusion_probability": float(np.median(incl)) if incl else float("nan"),
     }
 

@@ -28,7 +28,7 @@ from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from pneumatics.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import common_metrics, confusion_matrix, plot_confusion, print_cases
+from ._benchmark import common_metrics, confusion_matrix, nrmse_reductions, plot_confusion, print_cases
 from ._variantsim.cases import make_case
 from ._variantsim.effects import FAMILIES
 from .common import main
@@ -70,8 +70,7 @@ def variant_case(case: dict) -> dict:
     report.pop("_replays", None)
     j = judge(truth, report)
     j_strict = judge(truth, report, strict=True)
-    red = [1 - f["heldout_nrmse"]["after"] / f["heldout_nrmse"]["before"] for f in report["findings"]
-           if f["heldout_nrmse"]["before"]]
+    red, red_reg = nrmse_reductions(report["findings"]), nrmse_reductions(report["findings"], "heldout_nrmse_in_regime")
     c = truth["concealment"]
     return {"seed": seed, "case": name, "folder": str(folder), "families": fams or ["none"],
             "forms": [e["kind"] for e in truth["effects"]], "where": [e["where"] for e in truth["effects"]],
@@ -82,7 +81,7 @@ def variant_case(case: dict) -> dict:
             "alternatives": [f.get("alternatives", []) for f in report["findings"]],
             "family_ok": j["family_ok"], "family_ok_strict": j_strict["family_ok"],
             "location_ok": j["location_ok"], "location_ok_strict": j_strict["location_ok"],
-            "nrmse_reduction": red, "seconds": secs, "generate_seconds": gen_s,
+            "nrmse_reduction": red, "nrmse_reduction_in_regime": red_reg, "seconds": secs, "generate_seconds": gen_s,
             "min_r2_calibrated": min(report["baseline"]["heldout_r2"].values()),
             "unexplained": [{"where": u["where"], "regime": u["regime"]} for u in report["unexplained"]]}
 

@@ -33,6 +33,9 @@ def test_lugre_friction_on_the_shoulder_is_named_coulomb_friction(tmp_path):
     fc = f["parameters"]["coulomb_nm"]
     assert 0.02 < fc["value"] < 0.08 and fc["stderr"] < 0.2 * fc["value"]  # truth: 0.045 N m (LuGre)
     assert f["heldout_nrmse"]["after"] < 0.8 * f["heldout_nrmse"]["before"]
+    # friction lives where the joint moves slowly or reverses: the fit gets better there too
+    inside = f["heldout_nrmse_in_regime"]
+    assert f["regime"] != "throughout" and inside["after"] < 0.8 * inside["before"]
     assert rep["unexplained"] == []
     write(rep, tmp_path, robot)
     on_disk = json.loads((tmp_path / "report.json").read_text())
@@ -127,3 +130,20 @@ def test_pooled_recordings_keep_their_joins_out_of_windows_and_torque_samples():
     assert not np.any((win.starts < n0) & (win.starts + 31 >= n0))  # no window straddles the join
     td = torque_data(exp)
     assert not td.valid[n0 - 5:n0 + 5].any() and td.valid[n0 + 50]
+
+
+def test_replay_nrmse_inside_a_regime_shares_the_overall_scale():
+    """ReplayResult.nrmse(rows): the RMS error over the replayed samples of the given rows,
+    divided by the measured channel's s.d. over all samples (not the subset's own)."""
+    import numpy as np
+
+    from identification.replay import ReplayResult
+
+    meas = np.sin(np.linspace(0, 6, 40))
+    pred = meas + np.where(np.arange(40) < 10, 0.2, 0.0)       # wrong only on the first rows
+    rr = ReplayResult({"x": pred}, {"x": meas}, np.arange(40) * 0.01, np.arange(40) + 5)
+    rows = np.zeros(50, bool)
+    rows[5:15] = True                                           # experiment rows 5..14 = samples 0..9
+    assert rr.nrmse(np.ones(50, bool))["x"] == pytest.approx(rr.nrmse()["x"])
+    assert rr.nrmse(rows)["x"] == pytest.approx(0.2 / np.std(meas))
+    assert rr.nrmse(~rows)["x"] == pytest.approx(0.0)
