@@ -30,7 +30,7 @@ from .hypotheses import (
     pneumatic_hypotheses,
     smooth_torque_yardstick,
 )
-from .mechanics import fit_rigid_body, torque_data
+from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
 from .pneumatic import PneumaticMods, Windows, replay
 from .regimes import (
     chamber_regimes,
@@ -186,6 +186,8 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         base_extra = stack_terms(base_extra, h.regressor(exp, td), h)
         kept_mech.append(h)
         extra_terms += [(None, h.joint)]
+    if refine:  # the inertias, fitted again beside what is kept (calibrate_rigid_body)
+        calibrate_rigid_body(td, *base_extra)
     for rnd in range(MAX_ROUNDS):
         _say(progress, f"scoring mechanical hypotheses (round {rnd + 1})")
         # one pressure-sensor offset per cylinder: where the pressure replays found one, the
@@ -222,6 +224,10 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         base_extra = stack_terms(base_extra, best.hyp.regressor(exp, td), best.hyp)
         kept_mech.append(best.hyp)
         extra_terms += [(_mech_attr(name), best.hyp.joint) for name, *_ in best.hyp.params]
+        # the first calibration may have taken up part of this effect (an encoder offset as
+        # less link mass); with the inertias held there, the rest would be left at the other
+        # joint for the next round or the unexplained check: fit them again beside it
+        calibrate_rigid_body(td, *base_extra)
     outside += _outside_without_finding(robot, exp, td, held, td_h, findings, outside, kept_mech, base_extra)
     final_rfit = fit_rigid_body(td, *base_extra) if base_extra else rfit
     # pressure-sensor offsets found by the torque balance act on the chambers in the replays

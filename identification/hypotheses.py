@@ -76,7 +76,7 @@ def _heat(c, n):
 #: arm2's chambers (walls of 20-50 cm^2, h = 10-100 W/(m^2 K) with the flow's forced convection,
 #: Carneiro & de Almeida 2006) have 0.02-0.5 W/K; 2 W/K is close to isothermal at 1 ms.
 HEAT_PROBE_W_K, HEAT_MAX_W_K = 0.1, 2.0
-#: laminar leaks' conductance G [kg/(s Pa)] (pneumatics.effects.external_leak.laminar_flow): the
+#: the laminar piston leak's conductance G [kg/(s Pa)] (pneumatics.effects.external_leak.laminar_flow): the
 #: probe step carries about what a 1e-8 m^2 orifice does at 5 bar (~1e-5 kg/s), the bound 10x
 #: the orifice forms' 4e-7 m^2 in the same sense
 LAMINAR_PROBE, LAMINAR_MAX = 1e-11, 4e-9
@@ -99,10 +99,11 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
                        apply=_valve_leak(c, C, asymmetric=True)),
             Hypothesis("external_leak", where, "pneumatic", [("leak_area_m2", 0.0, 0.0, 4e-7, 1e-8)], [c],
                        apply=_set("external_leak_m2", c, C)),
-            # the laminar form (a capillary, a porous wall: m ~ p^2 - p_room^2), sharing the
-            # orifice's fitting slot; a short hole chokes, a long gap does not
-            Hypothesis("external_leak", where, "pneumatic", [("conductance_kg_s_pa", 0.0, 0.0, LAMINAR_MAX, LAMINAR_PROBE)],
-                       [c], apply=_set("external_leak_g", c, C)),
+            # no laminar form of the external leak here (the simulator has one): the orifice
+            # form names capillary external leaks (3 / 3 in the variant benchmark before the
+            # laminar form existed), while the laminar one, growing as p^2, took 26 % of the
+            # residual of a supply area that shrinks with pressure (published sample
+            # case_2e6a35dc, outside the vocabulary) and named it an external leak
             Hypothesis("valve_hysteresis", where, "pneumatic", [("half_width_v", 0.0, 0.0, 2.0, 0.1)], [c],
                        apply=_set("hysteresis_v", c, C)),
             Hypothesis("valve_lag", where, "pneumatic", [("time_constant_s", 0.0, 0.0, 0.15, 0.004)], [c],

@@ -81,6 +81,11 @@ class TorqueData:
         if not np.isfinite(self.lowpass_hz):
             return x[self.valid]
         sos = butter(4, self.lowpass_hz / (0.5 * self.rate_hz), output="sos")
+        # invalid samples (near a joint limit, where MuJoCo's inverse dynamics adds the limit's
+        # constraint force) set to zero in torque and regressors alike: the balance still holds
+        # sample by sample, and their torques, often 100x the rest, cannot leak through the
+        # filter's tails into the samples kept
+        x = np.where(self.valid.reshape((-1,) + (1,) * (x.ndim - 1)), x, 0.0)
         y = np.empty_like(x)
         bounds = (0, *self.breaks, x.shape[0])
         for a, b in zip(bounds[:-1], bounds[1:]):
@@ -203,17 +208,37 @@ def _copy(model):
     return copy.copy(model)
 
 
-def calibrate_rigid_body(td: TorqueData) -> Fit:
+def calibrate_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_names=(), extra_bounds=None) -> Fit:
     """The rigid body's calibration: bounded linear least squares of tau_res = sum theta_k reg_k
     on the parallel-filtered, decimated samples (module docstring).  The parameters the data
-    cannot identify are chosen here (``td.fixed``) and held at 0 with a NaN standard error.
-    Returns a Fit (scales are relative changes: 0 = nominal), also kept as ``td.calibration``."""
+    cannot identify are chosen here (``td.fixed``, among the rigid body's own columns, on every
+    call) and held at 0 with a NaN standard error.
+
+    With the regressors ``extra`` (N, J, E) of effects already kept, they are fitted jointly:
+    an effect the first calibration partly absorbed (an encoder offset taken up as 9 % less
+    upper-link mass) hands the inertias back.  Returns the rigid body's part as a Fit (scales
+    are relative changes: 0 = nominal), also kept as ``td.calibration``."""
     A, y = td.decimate(td.regressors), td.decimate(td.residual)
-    A2, y2 = _scaled(A, y)
-    if td.fixed is None:
-        td.fixed = _unidentified(A2, y2, td.names, td.lower, td.upper)
-    free = np.array([n not in td.fixed for n in td.names])
-    td.calibration = _bounded_fit(A2, y2, list(td.names), td.lower, td.upper, free, np.zeros(len(td.names)))
+    P = len(td.names)
+    names, lo, hi, n_e = list(td.names), td.lower, td.upper, 0
+    if extra is not None:
+        n_e = extra.shape[2]
+        elo, ehi = extra_bounds if extra_bounds is not None else (np.full(n_e, -np.inf), np.full(n_e, np.inf))
+        A = np.concatenate([A, td.decimate(extra)], axis=2)
+        names, lo, hi = names + list(extra_names), np.concatenate([lo, elo]), np.concatenate([hi, ehi])
+    # each joint's rows weighted by 1 / its residual's s.d.: first before the fit, then (one
+    # pass of feasible weighted least squares) after it.  The first weights alone let an effect
+    # much larger than the noise (an encoder offset's gravity torque) down-weight its joint's
+    # rows even once the effect is modelled, and a mass it identifies then looks unidentifiable
+    scale = None
+    for _ in range(2):
+        A2, y2, scale = _scaled(A, y, scale)
+        td.fixed = _unidentified(A2, y2, names, lo, hi, n_e)
+        free = np.array([n not in td.fixed for n in names])
+        fit = _bounded_fit(A2, y2, names, lo, hi, free, np.zeros(len(names)))
+        scale = scale * np.std(fit.residual.reshape(-1, len(scale)), axis=0)
+    td.calibration = replace(fit, names=names[:P], values=fit.values[:P], stderr=fit.stderr[:P],
+                             at_bound=[n for n in fit.at_bound if n in td.names])
     return td.calibration
 
 
@@ -241,14 +266,17 @@ def fit_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_names=
     held = np.concatenate([cal.values, np.zeros(n_e)])
     free = np.array([k >= len(td.names) or (n.startswith("damping_scale.") and n not in td.fixed)
                      for k, n in enumerate(names)])
-    A2, y2 = _scaled(A, td.residual[v])
+    A2, y2, _ = _scaled(A, td.residual[v])
     return _bounded_fit(A2, y2, names, lo, hi, free, held)
 
 
-def _scaled(A, y):
-    """(A2 (M J, P), y2 (M J,)): each joint's rows divided by its residual's s.d."""
-    scale = np.array([max(np.std(y[:, j]), 1e-9) for j in range(y.shape[1])])
-    return (A / scale[None, :, None]).reshape(-1, A.shape[2]), (y / scale).ravel()
+def _scaled(A, y, scale=None):
+    """(A2 (M J, P), y2 (M J,), scale (J,)): each joint's rows divided by ``scale``, by default
+    its residual's s.d."""
+    if scale is None:
+        scale = np.array([np.std(y[:, j]) for j in range(y.shape[1])])
+    scale = np.maximum(scale, 1e-9)
+    return (A / scale[None, :, None]).reshape(-1, A.shape[2]), (y / scale).ravel(), scale
 
 
 def _bounded_fit(A2, y2, names, lo, hi, free, held) -> Fit:
@@ -268,13 +296,14 @@ def _bounded_fit(A2, y2, names, lo, hi, free, held) -> Fit:
     return Fit(names, x, se, rss, y2.size, cond, at, res)
 
 
-def _unidentified(A2, y2, names, lo, hi) -> dict:
+def _unidentified(A2, y2, names, lo, hi, n_effects: int = 0) -> dict:
     """Calibration parameters kept nominal -> the reason: first those whose column is a
     combination of earlier ones (the order of ``names``: bodies before joint terms), then,
-    one at a time, the one with the largest standard error while that exceeds ESSENTIAL_SE."""
+    one at a time, the one with the largest standard error while that exceeds ESSENTIAL_SE.
+    The last ``n_effects`` columns (kept effects) are always fitted, never chosen here."""
     fixed = {}
-    kept = []
-    for k, n in enumerate(names):
+    kept = list(range(len(names) - n_effects, len(names)))
+    for k, n in enumerate(names[:len(names) - n_effects]):
         col = A2[:, k]
         norm = np.linalg.norm(col)
         if kept:
@@ -292,6 +321,7 @@ def _unidentified(A2, y2, names, lo, hi) -> dict:
         free = np.array([n not in fixed for n in names])
         fit = _bounded_fit(A2, y2, names, lo, hi, free, np.zeros(len(names)))
         se = np.where(free, fit.stderr, -np.inf)
+        se[len(names) - n_effects:] = -np.inf
         worst = int(np.argmax(se))
         if se[worst] <= ESSENTIAL_SE:
             return fixed

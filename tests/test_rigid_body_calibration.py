@@ -68,3 +68,29 @@ def test_noise_free_angles_fit_the_nominal_model():
     got = dict(zip(fit.names, 1 + fit.values))
     assert got["mass_scale.forearm"] == pytest.approx(1.0, abs=0.005)
     assert got["mass_scale.upper_link"] == pytest.approx(1.0, abs=0.02)
+
+
+def test_an_effect_the_calibration_took_up_hands_the_inertias_back_when_fitted_beside_it():
+    """An encoder reading 0.06 rad high on the shoulder: alone, the calibration takes part of
+    the offset's gravity torque as wrong link masses; fitted jointly with the offset's
+    regressor (what the doctor does once it keeps the offset) the true masses come back."""
+    from identification.hypotheses import mechanical_hypotheses
+    from identification.screening import stack_terms
+
+    robot = load_robot("arm2")
+    true = load_robot("arm2")
+    for body, k in (("upper_link", 1.08), ("forearm", 0.94)):
+        i = true.model.body(body).id
+        true.model.body_mass[i] *= k
+        true.model.body_inertia[i] *= k
+    rec = _recording(true)
+    rec.columns["q.shoulder"] = rec.columns["q.shoulder"] + 0.06
+    exp = prepare(robot, rec)
+    td = torque_data(exp)
+    alone = dict(zip(td.names, 1 + calibrate_rigid_body(td).values))
+    (offset,) = [h for h in mechanical_hypotheses(robot) if h.label == "angle_sensor_offset@shoulder"]
+    joint = dict(zip(td.names, 1 + calibrate_rigid_body(td, *stack_terms(None, offset.regressor(exp, td), offset)).values))
+    assert abs(alone["mass_scale.upper_link"] - 1.08) > 0.04 or abs(alone["mass_scale.forearm"] - 0.94) > 0.04
+    assert joint["mass_scale.upper_link"] == pytest.approx(1.08, abs=0.02)
+    assert joint["mass_scale.forearm"] == pytest.approx(0.94, abs=0.01)
+    assert td.calibration.names == td.names  # the rigid body's part only, as fit_rigid_body holds it
