@@ -97,7 +97,7 @@ class Finding:
     nrmse: dict = field(default_factory=dict)
     evidence: str = ""
     alternative_places: list = field(default_factory=list)  # places these sensors cannot tell apart
-    regime_rows: np.ndarray | None = None  # (N,) bool: the held-out samples in its regime (None: throughout)
+    regimes: dict = field(default_factory=dict)  # regime name -> (N,) bool over the held-out samples, at its place
 
 
 def _say(progress, msg):
@@ -251,7 +251,15 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     final_cal = dict(zip(names, map(float, np.concatenate([mods.supply_scale, mods.exhaust_scale,
                                                            mods.dead_volume_scale]))))
     final_cal.update({n: float(1 + v) for n, v in zip(rfit.names, final_rfit.values[:len(rfit.names)])})
-    flags = [n for n, v in final_cal.items() if abs(np.log(v)) > np.log(1.1)]
+    # "moved": more than 10 % and more than two standard errors (the elbow armature, 0.25 % of
+    # the elbow's inertia, can wander 18 % within its error bar); log scales for the chambers,
+    # the final calibration's errors for the inertias the effect fits held
+    cal_se = dict(zip(cfit.names, cfit.stderr))
+    held_se = dict(zip(td.calibration.names, td.calibration.stderr))
+    cal_se.update({n: e if np.isfinite(e) else held_se.get(n, 0.0)
+                   for n, e in zip(rfit.names, final_rfit.stderr[:len(rfit.names)])})
+    flags = [n for n, v in final_cal.items()
+             if abs(np.log(v)) > np.log(1.1) and not abs(np.log(v)) <= 2 * np.nan_to_num(cal_se.get(n, 0.0))]
 
     # -- locate: regimes and windows of each finding; unexplained residual ------------------
     _say(progress, "locating regimes and windows")
@@ -269,14 +277,14 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             f.inclusion = _bootstrap_inclusion(e_before, e_after, PNEU_KEEP)
             reg = chamber_regimes(held, cs[0])
             f.regime, lift, share = locate_regime(r, {k: v[idx_h] for k, v in reg.items()})
-            f.regime_rows = reg.get(f.regime)
+            f.regimes = reg
             f.windows = windows(t_h, r)
         else:
             j = f.scored.hyp.joint
             r = _joint_residual(td_h, rfit, j)
             regs = joint_regimes(held, j)
             f.regime, lift, share = locate_regime(r, regs)
-            f.regime_rows = regs.get(f.regime)
+            f.regimes = regs
             f.windows = windows(held.t, r)
             full = _regs(kept_mech, held, td_h)
             after = td_h.residual[:, j] - np.einsum("np,p->n", np.concatenate([td_h.regressors, full], axis=2)[:, j],
@@ -327,11 +335,13 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     for f in findings:
         ch = max(_channels(f, robot), key=lambda c: nb[c] - nf[c])
         f.nrmse = {"before": nb[ch], "after": nf[ch], "channel": ch}
-        if f.regime_rows is not None and np.any(f.regime_rows[base_replay.index]):
-            f.nrmse["in_regime"] = {"before": base_replay.nrmse(f.regime_rows)[ch],
-                                    "after": final_replay.nrmse(f.regime_rows)[ch]}
-        else:  # "throughout": the regime is the whole held-out data
-            f.nrmse["in_regime"] = {"before": nb[ch], "after": nf[ch]}
+        # the channel's NRMSE inside each regime of the finding's place (those the replays visit)
+        f.nrmse["by_regime"] = {name: {"before": base_replay.nrmse(m)[ch], "after": final_replay.nrmse(m)[ch],
+                                       "share_of_time": float(np.mean(m[base_replay.index]))}
+                                for name, m in f.regimes.items() if np.any(m[base_replay.index])}
+        # "throughout" (or a regime the replays miss): the whole held-out data
+        f.nrmse["in_regime"] = {k: f.nrmse["by_regime"].get(f.regime, {"before": nb[ch], "after": nf[ch]})[k]
+                                for k in ("before", "after")}
         f.evidence = _evidence(f)
     tests = _residual_tests(robot, held, win_h, res_h, res_base_h)
     report = {
@@ -635,6 +645,7 @@ def _finding_json(f: Finding) -> dict:
         "heldout_nrmse": {"before": f.nrmse.get("before"), "after": f.nrmse.get("after")},
         "heldout_channel": f.nrmse.get("channel"),
         "heldout_nrmse_in_regime": f.nrmse.get("in_regime"),
+        "heldout_nrmse_by_regime": f.nrmse.get("by_regime", {}),
         "heldout_equation_error_reduction": f.heldout_gain,
         "alternatives": f.alternatives,
         "alternative_places": f.alternative_places,

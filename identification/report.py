@@ -108,6 +108,32 @@ def _plots(report, replays, out: Path):
         atomic_save(out / name, lambda tmp: fig.savefig(tmp, dpi=100))
         plt.close(fig)
         made.append(name)
+    # each finding's channel, regime by regime at its place, before / after: where the error
+    # was and where the finding took it away
+    for i, f in enumerate(report["findings"], 1):
+        by = f.get("heldout_nrmse_by_regime") or {}
+        if not by:
+            continue
+        names = list(by)
+        fig, ax = plt.subplots(figsize=(8, 3.8))
+        x = np.arange(len(names))
+        ax.bar(x - 0.2, [by[n]["before"] for n in names], 0.4, label="calibrated model")
+        ax.bar(x + 0.2, [by[n]["after"] for n in names], 0.4, label="with the findings")
+        labels = [f"{n}\n({100 * by[n]['share_of_time']:.0f} % of time)" for n in names]
+        ax.set_xticks(x, labels, rotation=30, ha="right", fontsize=7)
+        for k, n in enumerate(names):
+            if n == f["regime"]:
+                ax.get_xticklabels()[k].set_fontweight("bold")
+        where = " ".join(str(v) for v in f["where"].values())
+        ax.set_title(f"{f['effect']} at {where}: held-out NRMSE of {f['heldout_channel']} by regime "
+                     f"(located: {f['regime']}, bold)", fontsize=9)
+        ax.set_ylabel("held-out NRMSE (channel's scale)")
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        name = f"regimes_finding_{i}.png"
+        atomic_save(out / name, lambda tmp: fig.savefig(tmp, dpi=100))
+        plt.close(fig)
+        made.append(name)
     # NRMSE per channel before / after
     fig, ax = plt.subplots(figsize=(8, 3.5))
     nb, nf = report["baseline"]["heldout_nrmse"], report["after"]["heldout_nrmse"]

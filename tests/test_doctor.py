@@ -36,11 +36,14 @@ def test_lugre_friction_on_the_shoulder_is_named_coulomb_friction(tmp_path):
     # friction lives where the joint moves slowly or reverses: the fit gets better there too
     inside = f["heldout_nrmse_in_regime"]
     assert f["regime"] != "throughout" and inside["after"] < 0.8 * inside["before"]
+    by = f["heldout_nrmse_by_regime"]
+    assert by[f["regime"]]["before"] == inside["before"] and all(0 < v["share_of_time"] <= 1 for v in by.values())
     assert rep["unexplained"] == []
     write(rep, tmp_path, robot)
     on_disk = json.loads((tmp_path / "report.json").read_text())
     assert KEYS <= set(on_disk) and on_disk["findings"][0]["effect"] == "coulomb_friction"
     assert (tmp_path / "report.md").read_text().startswith("# pneumasim doctor report")
+    assert "![regimes_finding_1.png](regimes_finding_1.png)" in (tmp_path / "report.md").read_text()
     # Ljung's residual tests, before and after, per pressure channel
     d = on_disk["diagnostics"]
     assert set(d["ljung_box_heldout_pressure"]) == set(d["input_xcorr_heldout_pressure"]) - {"input"} == \
