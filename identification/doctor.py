@@ -498,7 +498,8 @@ def _outside_without_finding(robot, exp, td, held, td_h, findings, outside, kept
     the library does not hold and none of its effects even partly mimics (a spring about a
     rest angle where gravity is weak).  Measured before adding this, on the joints of 26
     recordings with no mechanical effect there (pneumasim nulls, pneumatic-only cases, the
-    published truthsim ones): the yardstick's held-out gain was 0.025 at most."""
+    published truthsim ones): the yardstick's held-out gain was 0.025 at most; none of the 94
+    cases of the arm2 blind and variant benchmarks was reported unexplained this way."""
     done = {f.scored.hyp.joint for f in findings if f.scored.hyp.kind == "mechanical"} | {j for j, *_ in outside}
     todo = [j for j in range(len(robot.joint_names)) if j not in done]
     if not todo:

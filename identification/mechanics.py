@@ -215,7 +215,7 @@ def calibrate_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_
     call) and held at 0 with a NaN standard error.
 
     With the regressors ``extra`` (N, J, E) of effects already kept, they are fitted jointly:
-    an effect the first calibration partly absorbed (an encoder offset taken up as 9 % less
+    an effect the first calibration partly absorbed (an encoder offset taken up as 8 % less
     upper-link mass) hands the inertias back.  Returns the rigid body's part as a Fit (scales
     are relative changes: 0 = nominal), also kept as ``td.calibration``."""
     A, y = td.decimate(td.regressors), td.decimate(td.residual)
