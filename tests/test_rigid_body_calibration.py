@@ -34,15 +34,20 @@ def _recording(robot, seconds=40.0, seed=5, **kw):
     return run(sim, ARM2_PIDF.build(ref, robot.tables.valve[:, 0]), seconds, seed=seed + 7, **kw)
 
 
-def test_link_inertias_are_recovered_through_the_angle_noise():
-    """Links 8 % heavier and 6 % lighter than the model, the sensors' 0.05 deg angle noise:
-    without parallel filtering this fit gave the upper link +14 % and both armatures at a bound."""
-    robot = load_robot("arm2")
+def _links_off():
+    """arm2 with its upper link 8 % heavier and its forearm 6 % lighter than the model."""
     true = load_robot("arm2")
     for body, k in (("upper_link", 1.08), ("forearm", 0.94)):
         i = true.model.body(body).id
         true.model.body_mass[i] *= k
         true.model.body_inertia[i] *= k
+    return true
+
+
+def test_link_inertias_are_recovered_through_the_angle_noise():
+    """Links 8 % heavier and 6 % lighter than the model, the sensors' 0.05 deg angle noise:
+    without parallel filtering this fit gave the upper link +14 % and both armatures at a bound."""
+    robot, true = load_robot("arm2"), _links_off()
     rec = _recording(true)
     td = torque_data(prepare(robot, rec))
     assert 1.0 < td.lowpass_hz < 5.0  # a fifth of where the angle spline halves (~10-15 Hz)
@@ -77,12 +82,7 @@ def test_an_effect_the_calibration_took_up_hands_the_inertias_back_when_fitted_b
     from identification.hypotheses import mechanical_hypotheses
     from identification.screening import stack_terms
 
-    robot = load_robot("arm2")
-    true = load_robot("arm2")
-    for body, k in (("upper_link", 1.08), ("forearm", 0.94)):
-        i = true.model.body(body).id
-        true.model.body_mass[i] *= k
-        true.model.body_inertia[i] *= k
+    robot, true = load_robot("arm2"), _links_off()
     rec = _recording(true)
     rec.columns["q.shoulder"] = rec.columns["q.shoulder"] + 0.06
     exp = prepare(robot, rec)
