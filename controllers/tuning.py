@@ -9,7 +9,7 @@ Here the robot is the simulated arm2 (with its sensor noise, so the cost is nois
 real robot, which is why a simplex rather than finite differences).  The gains are searched
 in log space (they stay positive and span decades); there are plenty of local minima, so the
 search is restarted from several starting points, each restart one case of
-:func:`pneumatics.sweep.sweep` (processes, or Ray).
+:func:`workflow.sweep.sweep` (processes, or Ray).
 
 Families: ``pid`` (k_P, k_D per joint, one k_I; k_F = 0), ``pidf`` (the same plus k_F per
 joint), ``model_based`` (PIDF gains with the inverse-dynamics feedforward, eqs. 16-17).
@@ -158,9 +158,9 @@ def tune(family: str, restarts: int = 4, *, backend: str = "process", workers=No
     Returns {"best": tune_case result, "restarts": [...], "cfg": PIDFCfg}."""
     cases = restart_cases(family, restarts, **kw)
     try:
-        from pneumatics.sweep import sweep
+        from workflow.sweep import sweep
     except ImportError:  # the sweep module is being written alongside; run in this process
-        warnings.warn("pneumatics.sweep is not available: running the restarts one after another",
+        warnings.warn("workflow.sweep is not available: running the restarts one after another",
                       stacklevel=2)
         results = [tune_case(c) for c in cases]
     else:

@@ -20,7 +20,7 @@ the true torque r (A^+ p^+ - A^- p^- - (A^+ - A^-) p_room), not exactly G d: tha
 unmodelled, as it is on the real robot, and lowers R^2.
 
 Velocities and accelerations come from smoothing splines of the measured angles
-(:mod:`identification.smoothing`); samples near the joint limits (end-stop torques the
+(:mod:`identification.base.smoothing`); samples near the joint limits (end-stop torques the
 model does not have) and at the recording's edges (spline end effects) are left out.
 """
 from __future__ import annotations
@@ -34,8 +34,8 @@ import numpy as np
 from pneumatics.errors import PneumasimError
 from pneumatics.recording import Recording
 
-from . import lsq
-from .smoothing import smooth_derivatives
+from identification.base import lsq
+from identification.base.smoothing import smooth_derivatives
 
 PARAM_NAMES = ("w1_inertia_kg_m2", "w2_inertia_coupling_kg_m2", "w3_inertia_elbow_kg_m2", "w4_gravity_n_m",
                "w5_viscous_shoulder_n_m_s", "w6_viscous_elbow_n_m_s", "w7_offset_shoulder_n_m",

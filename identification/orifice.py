@@ -9,7 +9,7 @@ where f(p_up, p_down) is the isentropic mass flow per unit area (002 eqs. 7-8;
 :func:`pneumatics.medium.unit_flow`).  For each valve command v the unknowns a_c(v)/V and
 a_r(v)/V enter linearly, so one linear least-squares fit per chamber and command, on the
 pressure and its smoothing-spline derivative, recovers them with standard errors
-(:func:`identification.lsq.linear`).  Every command is applied twice, from room pressure and
+(:func:`identification.base.lsq.linear`).  Every command is applied twice, from room pressure and
 from supply pressure, so that both the charging and the discharging branch are excited; near
 the null, where both ports leak, the pair also fixes the ratio through the asymptote.
 
@@ -40,8 +40,8 @@ from pneumatics.robot import Robot
 from pneumatics.sim import Simulation
 from pneumatics.valve import valve_areas
 
-from .lsq import linear
-from .smoothing import discrepancy_lambda
+from identification.base.lsq import linear
+from identification.base.smoothing import discrepancy_lambda
 
 #: default command grid [V]: coarse where the valve is open, 0.1 V steps around the null
 #: (null offsets of +-0.15 V and dead bands of 0.1-0.25 V must be resolved)
@@ -186,7 +186,7 @@ def static_volume_transients(robot: Robot, commands_v=DEFAULT_COMMANDS_V, *, noi
 
 def smoothing_lambdas(transients) -> list[float]:
     """Smoothing-spline lambda of each transient, by the discrepancy principle
-    (:mod:`identification.smoothing`).  Records of one rate share one lambda, found on the
+    (:mod:`identification.base.smoothing`).  Records of one rate share one lambda, found on the
     chamber with the fastest transient among them, so that no chamber is over-smoothed
     (and the bisection runs once per rate, not once per record)."""
     by_rate: dict[float, list[int]] = {}

@@ -50,7 +50,7 @@ def bench_model(name: str, steps: int, repeats: int = 3, with_rerun: bool = True
     tmpdir = tempfile.TemporaryDirectory()
     if with_rerun:
         try:
-            from pneumatics.rerun_log import RerunLogger
+            from workflow.rerun_log import RerunLogger
         except ImportError:  # pragma: no cover
             with_rerun = False
     _prepare(sim)  # the forces of the full run, once per control period, for the bare replay
@@ -107,7 +107,7 @@ def bench_model(name: str, steps: int, repeats: int = 3, with_rerun: bool = True
 def bench_doctor(quick: bool) -> dict:
     """Wall time of ``pneumasim doctor`` on a 60 s, 100 Hz arm2 recording (+ 30 s held out),
     made fresh with a hidden Coulomb friction (``--quick``: 20 s + 10 s)."""
-    from identification.doctor import diagnose
+    from identification.doctor.valve_arm.diagnose import diagnose
     from scenarios._cases import make_case
 
     seconds, held = (20.0, 10.0) if quick else (60.0, 30.0)
@@ -128,13 +128,13 @@ def _noop_case(case: dict) -> dict:
 
 
 def bench_sweep(quick: bool) -> dict:
-    """Cases per second of :func:`pneumatics.sweep.sweep` on 1 and 2 local workers and on Ray
+    """Cases per second of :func:`workflow.sweep.sweep` on 1 and 2 local workers and on Ray
     (local, 2 CPUs), each case a closed-loop arm2 run (``arm2_domain_sweep.track``, 10 s
     simulated, nominal parameters).  Workers are warmed first (imports, numba compilation:
     paid once per worker process, reported as ``worker_warmup_s``); then the three set-ups
     are timed ``repeats`` times, interleaved, best kept.  Other processes load this machine;
     the 1-minute load average is recorded beside the numbers."""
-    from pneumatics.sweep import _cpu_count, connect_ray, sweep
+    from workflow.sweep import _cpu_count, connect_ray, sweep
     from scenarios.arm2_domain_sweep import track
 
     try:

@@ -33,8 +33,8 @@ def _cmd_doctor(args):
         return _cmd_jetpipe_doctor(args)
     from rich.console import Console
 
-    from identification.doctor import diagnose
-    from identification.report import summary, write
+    from identification.doctor.valve_arm.diagnose import diagnose
+    from identification.doctor.valve_arm.report import summary, write
     from pneumatics.recording import read_csv
     from pneumatics.robot import load_robot
 
@@ -50,8 +50,8 @@ def _cmd_doctor(args):
 
 
 def _cmd_bench_doctor(args):
-    from identification.bench_doctor import diagnose_bench
-    from identification.bench_report import summary, write
+    from identification.doctor.bench.diagnose import diagnose_bench
+    from identification.doctor.bench.report import summary, write
     from pneumatics.recording import read_csv
 
     recs = [read_csv(p) for p in args.recordings]
@@ -63,8 +63,8 @@ def _cmd_bench_doctor(args):
 
 
 def _cmd_jetpipe_doctor(args):
-    from identification.jetpipe_doctor import diagnose_jetpipe
-    from identification.jetpipe_report import summary, write
+    from identification.doctor.jetpipe.diagnose import diagnose_jetpipe
+    from identification.doctor.jetpipe.report import summary, write
     from pneumatics.recording import read_csv
 
     recs = [read_csv(p) for p in args.recordings]
@@ -98,7 +98,7 @@ def _cmd_sweep(args):
     import time
 
     from pneumatics.io import atomic_write_json
-    from pneumatics.sweep import load_function, read_cases, sweep
+    from workflow.sweep import load_function, read_cases, sweep
 
     if ":" not in args.target:  # a scenario: its sweeps take the options from the environment
         from scenarios.common import run_scenario

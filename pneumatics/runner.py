@@ -46,7 +46,7 @@ def run(sim: Simulation, controller, duration_s: float, *, rate_hz: float | None
       noise: add the model's [sensors] white noise to what the controller sees and records.
       average: DAQ averaging over each control period (default: the model's [sensors] average).
       record_velocity / record_force: add ``qd.<joint>`` / ``force.<actuator>`` columns.
-      logger: optional :class:`pneumatics.rerun_log.RerunLogger`, one frame per control step.
+      logger: optional :class:`workflow.rerun_log.RerunLogger`, one frame per control step.
       progress: optional callable(fraction) for progress display.
     Returns:
       The recording, one row per control step, N = round(duration_s * rate_hz) + 1 rows.

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from controllers.force import ForceCfg
-from identification.jetpipe_replay import make_trace, measured, replay
+from identification.doctor.jetpipe.replay import make_trace, measured, replay
 from pneumatics.errors import UnknownNameError
 from pneumatics.io import atomic_write_json
 from pneumatics.jetpipe.effects import JetpipeEffects

@@ -1,6 +1,6 @@
 """How the arm2 PIDF tracking degrades away from the conditions it was tuned for: a grid of
 supply pressures and valve-area scales, one closed-loop run per grid point, run through the
-sweep (:mod:`pneumatics.sweep`; every core, or Ray with ``PNEUMASIM_RAY=auto|ADDRESS``).
+sweep (:mod:`workflow.sweep`; every core, or Ray with ``PNEUMASIM_RAY=auto|ADDRESS``).
 
 Each case rebuilds arm2's fluid parameters with ``[supply] supply_pa`` replaced and every
 valve's ``supply_area_max_m2`` and ``exhaust_area_max_m2`` multiplied by the scale (the
@@ -27,7 +27,7 @@ from pneumatics.params import load_fluid
 from pneumatics.robot import load_robot
 from pneumatics.runner import run as run_loop
 from pneumatics.sim import Simulation
-from pneumatics.sweep import options_from_env, raise_on_failure, sweep
+from workflow.sweep import options_from_env, raise_on_failure, sweep
 
 from .common import main, plt
 

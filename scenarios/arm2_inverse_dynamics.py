@@ -20,7 +20,7 @@ import numpy as np
 
 from controllers.perturbation import CommandPerturbation
 from identification import inverse_dynamics as idyn
-from identification.data import split
+from identification.doctor.valve_arm.data import split
 
 from ._arm2_control import arm2, gains, references, run_controller
 from .common import main, plt

@@ -40,7 +40,7 @@ class Context:
         """A Rerun logger if ``--rerun``/``--spawn`` was given, else None."""
         if self.rerun_path is None and not self.spawn:
             return None
-        from pneumatics.rerun_log import RerunLogger
+        from workflow.rerun_log import RerunLogger
 
         return RerunLogger(robot, path=self.rerun_path, spawn=self.spawn,
                            recording_name=recording_name or self.name)

@@ -67,8 +67,8 @@ def run(ctx):
 
 def doctor_demo(ctx) -> dict:
     """A fresh recording with a hidden effect, and the doctor on it."""
-    from identification.doctor import diagnose
-    from identification.report import summary, write
+    from identification.doctor.valve_arm.diagnose import diagnose
+    from identification.doctor.valve_arm.report import summary, write
     from pneumatics.recording import read_csv
 
     from ._cases import make_case

@@ -10,7 +10,7 @@ median_heldout_nrmse_reduction (on the finding's channel), null_false_discovery_
 seconds_per_case, and concealed_fraction (cases whose calibrated model without the effect
 still reaches held-out R^2 >= 0.9 on every channel).
 
-The cases run through :func:`pneumatics.sweep.sweep` (one case = make the recordings and run
+The cases run through :func:`workflow.sweep.sweep` (one case = make the recordings and run
 the doctor): on every local core by default, on Ray with ``PNEUMASIM_RAY=auto|ADDRESS``
 (``PNEUMASIM_WORKERS=N`` sets the number of workers); each finished case is kept in
 ``<out>/sweep/cases/``, so a rerun into the same ``--out`` resumes where it stopped.
@@ -22,11 +22,11 @@ import time
 from pathlib import Path
 
 
-from identification.doctor import diagnose
+from identification.doctor.valve_arm.diagnose import diagnose
 from pneumatics.io import atomic_write_json
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
-from pneumatics.sweep import options_from_env, raise_on_failure, sweep
+from workflow.sweep import options_from_env, raise_on_failure, sweep
 
 from ._benchmark import common_metrics, confusion_matrix, nrmse_reductions, plot_confusion, print_cases
 from ._benchmark import judge as judge_effects

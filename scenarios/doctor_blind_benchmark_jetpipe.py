@@ -15,7 +15,7 @@ same inside the regime bin where the finding's improvement concentrates),
 null_false_discovery_rate (null cases with any finding or unexplained residual),
 seconds_per_case (the doctor alone), concealed_fraction, median_inclusion_probability.
 
-Cases run through :func:`pneumatics.sweep.sweep` (``PNEUMASIM_WORKERS=N``, ``PNEUMASIM_BACKEND``);
+Cases run through :func:`workflow.sweep.sweep` (``PNEUMASIM_WORKERS=N``, ``PNEUMASIM_BACKEND``);
 finished cases are kept in ``<out>/sweep/cases/`` (a rerun resumes).
 """
 from __future__ import annotations
@@ -26,10 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from identification.jetpipe_doctor import diagnose_jetpipe
+from identification.doctor.jetpipe.diagnose import diagnose_jetpipe
 from pneumatics.io import atomic_write_json
 from pneumatics.recording import read_csv
-from pneumatics.sweep import options_from_env, raise_on_failure, sweep
+from workflow.sweep import options_from_env, raise_on_failure, sweep
 
 from ._benchmark import common_metrics, confusion_matrix, nrmse_reductions, plot_confusion, print_cases
 from ._benchmark import judge as judge_effects

@@ -21,12 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
-from identification.doctor import diagnose
-from identification.report import write as write_report
+from identification.doctor.valve_arm.diagnose import diagnose
+from identification.doctor.valve_arm.report import write as write_report
 from pneumatics.io import atomic_write_json
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
-from pneumatics.sweep import options_from_env, raise_on_failure, sweep
+from workflow.sweep import options_from_env, raise_on_failure, sweep
 
 from ._benchmark import common_metrics, confusion_matrix, nrmse_reductions, plot_confusion, print_cases
 from ._variantsim.cases import make_case

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from identification.bench_doctor import diagnose_bench, velocity
-from identification.bench_report import write
+from identification.doctor.bench.diagnose import diagnose_bench, velocity
+from identification.doctor.bench.report import write
 from pneumatics.errors import PneumasimError
 from pneumatics.importer import import_file
 from pneumatics.io import atomic_write_text

@@ -8,7 +8,7 @@ import pytest
 from pneumatics.effects.backlash import backlash_model, drive_pairs, set_drive_state
 from pneumatics.effects.effect_set import EffectSet
 from pneumatics.errors import PneumasimError, UnknownNameError
-from pneumatics.rerun_log import RerunLogger
+from workflow.rerun_log import RerunLogger
 from pneumatics.robot import load_robot
 from pneumatics.sim import Simulation
 

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from identification.bench_chamber_fit import _leak_and_heat
-from identification.bench_doctor import diagnose_bench
-from identification.bench_model import load_bench, replay_cylinder
+from identification.doctor.bench.chamber_fit import _leak_and_heat
+from identification.doctor.bench.diagnose import diagnose_bench
+from pneumatics.bench.model import load_bench, replay_cylinder
 from pneumasim.cli import main as cli_main
 from pneumatics.effects.external_leak import leak_mass_flow
 from pneumatics.effects.heat_transfer import (

@@ -1,4 +1,4 @@
-"""The doctor's compiled chamber step (identification.chamber_kernel) against its numpy reference
+"""The doctor's compiled chamber step (identification.doctor.valve_arm.chamber_kernel) against its numpy reference
 (ChamberModel.step_reference): one step on random states with each pneumatic hypothesis, and a
 whole pressure replay of a recording."""
 from pathlib import Path
@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from identification.data import prepare
-from identification.pneumatic import ChamberModel, PneumaticMods, Windows, replay
+from identification.doctor.valve_arm.data import prepare
+from identification.doctor.valve_arm.pneumatic import ChamberModel, PneumaticMods, Windows, replay
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from identification.doctor import diagnose
-from identification.report import write
+from identification.doctor.valve_arm.diagnose import diagnose
+from identification.doctor.valve_arm.report import write
 from pneumatics.errors import RecordingError
 from pneumatics.recording import Recording, read_csv
 from pneumatics.robot import load_robot
@@ -115,9 +115,9 @@ def test_gaps_in_time_are_refused(tmp_path):
 
 
 def test_pooled_recordings_keep_their_joins_out_of_windows_and_torque_samples():
-    from identification.data import pool, prepare
-    from identification.mechanics import torque_data
-    from identification.pneumatic import Windows
+    from identification.doctor.valve_arm.data import pool, prepare
+    from identification.doctor.valve_arm.mechanics import torque_data
+    from identification.doctor.valve_arm.pneumatic import Windows
 
     robot = load_robot("arm2")
     rec = read_csv(BLIND / "case_befd9d0f.csv")
@@ -140,7 +140,7 @@ def test_replay_nrmse_inside_a_regime_shares_the_overall_scale():
     divided by the measured channel's s.d. over all samples (not the subset's own)."""
     import numpy as np
 
-    from identification.replay import ReplayResult
+    from identification.doctor.valve_arm.replay import ReplayResult
 
     meas = np.sin(np.linspace(0, 6, 40))
     pred = meas + np.where(np.arange(40) < 10, 0.2, 0.0)       # wrong only on the first rows

@@ -4,7 +4,7 @@ piston leak the first calibration half-absorbed; and a joint spring, outside the
 diagnosed from its CSV files alone; slow (1-4 min each), so outside the default run."""
 import pytest
 
-from identification.doctor import diagnose
+from identification.doctor.valve_arm.diagnose import diagnose
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from scenarios._cases import make_case, make_spring_case

@@ -5,7 +5,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from identification.thermal import _track_compiled, track_reference
+from identification.doctor.valve_arm.thermal import _track_compiled, track_reference
 from pneumatics.effects.effect_set import EffectSet
 from pneumatics.effects.heat_transfer import chamber_flows, closed_chamber, thermal_step
 from pneumatics.robot import load_robot

@@ -70,7 +70,7 @@ def pidf_recording(arm2):
 def test_fit_on_a_noisy_simulated_recording(arm2, pidf_recording):
     """From angles and pressures alone (noise, DAQ averaging, rod-side area not modelled) the
     fit predicts held-out pressure differences well and finds the rigid-body numbers."""
-    from identification.data import split
+    from identification.doctor.valve_arm.data import split
 
     a, b = split(pidf_recording, 0.3)
     model = idyn.fit(idyn.samples(a, arm2.joint_range()), idyn.torque_gain(arm2))

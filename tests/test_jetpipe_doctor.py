@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from identification.jetpipe_doctor import diagnose_jetpipe
+from identification.doctor.jetpipe.diagnose import diagnose_jetpipe
 from pneumatics.errors import ConfigError, RecordingError, UnknownNameError
 from pneumatics.jetpipe import effects as E
 from pneumatics.jetpipe import kernel
@@ -198,8 +198,8 @@ def test_cli_routes_jetpipe_and_reports_bad_input_in_one_line(clean_case, tmp_pa
 @pytest.mark.slow  # ~40 s
 def test_fitted_effects_replay_what_was_found(tmp_path):
     """The CLI path: report.json/report.md written, the finding usable as a JetpipeEffects."""
-    from identification.jetpipe_doctor import fitted_effects
-    from identification.jetpipe_report import write
+    from identification.doctor.jetpipe.diagnose import fitted_effects
+    from identification.doctor.jetpipe.report import write
 
     truth = make_case(tmp_path / "case", 9, "pressure_sensor_offset", seconds=4.0, heldout_seconds=2.0)
     rep = _doctor(truth)
@@ -226,7 +226,7 @@ def test_fast_blind_benchmark(tmp_path, monkeypatch):
 
 # -- the report's guards: regimes, Ljung's tests, bootstrap inclusion, .rrd ---------------------
 def test_regime_concentration_finds_the_bin_that_holds_the_weight():
-    from identification.jetpipe_regimes import concentrate
+    from identification.doctor.jetpipe.regimes import concentrate
 
     rng = np.random.default_rng(0)
     x, y = rng.uniform(0, 1, 5000), rng.uniform(0, 1, 5000)
@@ -240,7 +240,7 @@ def test_regime_concentration_finds_the_bin_that_holds_the_weight():
 
 
 def test_input_cross_correlation_sees_an_input_left_in_the_residual():
-    from identification.regimes import input_xcorr
+    from identification.doctor.valve_arm.regimes import input_xcorr
 
     rng = np.random.default_rng(1)
     u = np.cumsum(rng.normal(size=8000)) * 1e-3  # a coloured command
@@ -269,7 +269,7 @@ def test_doctor_finds_a_concealed_leak_fast(tmp_path):
     import sys
     from pathlib import Path
 
-    from identification.jetpipe_report import write
+    from identification.doctor.jetpipe.report import write
 
     truth = make_case(tmp_path / "case", 11, "external_leak", seconds=1.2, heldout_seconds=1.0)
     assert min(truth["r2_nominal_heldout"].values()) >= 0.9  # concealed

@@ -10,7 +10,7 @@ from collections import defaultdict
 import numpy as np
 import pytest
 
-from pneumatics.rerun_log import RerunLogger
+from workflow.rerun_log import RerunLogger
 from pneumatics.sim import Simulation
 
 rr = pytest.importorskip("rerun")

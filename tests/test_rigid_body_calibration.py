@@ -6,9 +6,9 @@ from scipy.interpolate import make_smoothing_spline
 
 from controllers.pid import ARM2_PIDF
 from controllers.reference import hand_moved
-from identification.data import prepare
-from identification.mechanics import calibrate_rigid_body, torque_data
-from identification.smoothing import spline_cutoff_hz
+from identification.doctor.valve_arm.data import prepare
+from identification.doctor.valve_arm.mechanics import calibrate_rigid_body, torque_data
+from identification.base.smoothing import spline_cutoff_hz
 from pneumatics.robot import load_robot
 from pneumatics.runner import run
 from pneumatics.sim import Simulation
@@ -79,8 +79,8 @@ def test_an_effect_the_calibration_took_up_hands_the_inertias_back_when_fitted_b
     """An encoder reading 0.06 rad high on the shoulder: alone, the calibration takes part of
     the offset's gravity torque as wrong link masses; fitted jointly with the offset's
     regressor (what the doctor does once it keeps the offset) the true masses come back."""
-    from identification.hypotheses import mechanical_hypotheses
-    from identification.screening import stack_terms
+    from identification.doctor.valve_arm.hypotheses import mechanical_hypotheses
+    from identification.doctor.valve_arm.screening import stack_terms
 
     robot, true = load_robot("arm2"), _links_off()
     rec = _recording(true)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from pneumatics.errors import ConfigError, PneumasimError, UnknownNameError
-from pneumatics.sweep import BACKENDS, sweep
+from workflow.sweep import BACKENDS, sweep
 
 CASES = [{"seed": s, "n": 2000} for s in range(6)]
 
@@ -123,7 +123,7 @@ def test_interrupted_sweep_resumes_without_recomputing(tmp_path):
     out, log = tmp_path / "out", tmp_path / "calls.log"
     cases = [{"seed": s, "n": 100, "log": str(log)} for s in range(6)]
     script = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r})\n"
-              "from test_sweep import logged_slow\nfrom pneumatics.sweep import sweep\n"
+              "from test_sweep import logged_slow\nfrom workflow.sweep import sweep\n"
               f"sweep(logged_slow, {cases!r}, out={str(out)!r}, workers=1, progress=False)\n")
     proc = subprocess.Popen([sys.executable, "-c", script])
     deadline = time.time() + 60

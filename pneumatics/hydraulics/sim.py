@@ -19,7 +19,6 @@ The input current is clipped at the hysteresis saturation current (the amplifier
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -170,12 +169,12 @@ class HydraulicJointSim:
         return [int(w.number) for w in self.data.warning]
 
     def rerun_robot(self):
-        """What :class:`pneumatics.rerun_log.RerunLogger` reads of a robot, for this joint
+        """What :class:`workflow.rerun_log.RerunLogger` reads of a robot, for this joint
         (log recordings with ``logger.log_recording(rec, prefix="", bodies=True)``)."""
-        from ..rerun_log import RerunRobot
+        from ..robot_view import RobotView
 
         names = [VANE_JOINT, SHAFT_JOINT]
-        return RerunRobot("sarcos_elbow", self.model, names,
+        return RobotView("sarcos_elbow", self.model, names,
                           np.array([self.model.jnt_qposadr[self.model.joint(j).id] for j in names]),
                           [ACTUATOR], [(ACTUATOR, "a"), (ACTUATOR, "b")])
 

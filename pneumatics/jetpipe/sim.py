@@ -245,11 +245,11 @@ class JetpipeSim:
         return Recording(t[:row], {k: v[:row] for k, v in cols.items()}, meta, f"<{self.jm.name} run>")
 
     def rerun_robot(self):
-        """What :class:`pneumatics.rerun_log.RerunLogger` reads of a robot, for this actuator
+        """What :class:`workflow.rerun_log.RerunLogger` reads of a robot, for this actuator
         (log runs with ``logger.log_recording(rec, prefix="", bodies=True)``)."""
-        from ..rerun_log import RerunRobot
+        from ..robot_view import RobotView
 
-        return RerunRobot(self.jm.name, self.model, ["piston"],
+        return RobotView(self.jm.name, self.model, ["piston"],
                           np.array([self.model.jnt_qposadr[self.model.joint("piston").id]]),
                           ["piston"], [("piston", "a"), ("piston", "b")])
 

@@ -158,7 +158,7 @@ class ChamberModel:
         self._kernel_args = self._pack_kernel()
 
     def _pack_kernel(self):
-        """Arguments of the compiled step (identification.chamber_kernel) for these mods."""
+        """Arguments of the compiled step (identification.doctor.valve_arm.chamber_kernel) for these mods."""
         tab, mods = self.tab, self.mods
         C = tab.n_chambers
 
@@ -183,7 +183,7 @@ class ChamberModel:
     def step(self, p, u, travel0, travel1):
         """p (W, C) -> p after one FINE_DT step with commands u (W, C) and travels at its ends.
 
-        Compiled (identification.chamber_kernel); :meth:`step_reference` is its numpy twin.
+        Compiled (identification.doctor.valve_arm.chamber_kernel); :meth:`step_reference` is its numpy twin.
         Chambers with heat_transfer update their gas temperatures ``self.T`` (W, C) [K]."""
         rows, ss, es, vl, vle, vw, xl, pl, xg, pg, dead, area, m_sup, glob, heat = self._kernel_args
         out = np.empty_like(p)

@@ -1,14 +1,14 @@
 """The mismatch finder for the jet-pipe actuator (``pneumasim doctor --model jetpipe``).
 
-Same report contract as :mod:`identification.doctor` (DESIGN.md "The mismatch finder"), scaled
+Same report contract as :mod:`identification.doctor.valve_arm.diagnose` (DESIGN.md "The mismatch finder"), scaled
 to this one-actuator bench (paper 000, Fig. 8: piston on the rod stopper, force sensor on the
 rod, two chamber transducers, coil current, optionally the jet-position sensor):
 
-1. **Read and check** (:mod:`identification.jetpipe_data`): columns, units, piston on the
+1. **Read and check** (:mod:`identification.doctor.jetpipe.data`): columns, units, piston on the
    stopper; hold out the given files or the last 30 % of each recording.
 2. **Calibrate first**: four nominal parameters (C_d, both dead volumes, the jet offset) within
    +-35 %, by least squares on restarted replays of (the first 8 s of) the fitted part
-   (:mod:`identification.jetpipe_replay`: the simulator's own step driven by the recorded current
+   (:mod:`identification.doctor.jetpipe.replay`: the simulator's own step driven by the recorded current
    command, pressures restarted from the measurement every second).
 3. **Residuals per channel** (p_a, p_b, force, jet) with each channel's noise floor estimated from
    the data: the second difference of the calibrated model's residual, std / sqrt(6).
@@ -25,8 +25,8 @@ rod, two chamber transducers, coil current, optionally the jet-position sensor):
    overall and in at least two 1 s windows (listed).
 6. **Guards and regimes** (held-out data): each kept effect's bootstrap inclusion probability
    (block bootstrap over held-out blocks of whether its J reduction still passes the keep rule,
-   :func:`identification.doctor._bootstrap_inclusion`); the regime where its squared-residual
-   reduction concentrates (:mod:`identification.jetpipe_regimes`: command level, jet distance
+   :func:`identification.doctor.valve_arm.diagnose._bootstrap_inclusion`); the regime where its squared-residual
+   reduction concentrates (:mod:`identification.doctor.jetpipe.regimes`: command level, jet distance
    from centre, time since a command reversal or step, pressure levels, flow into each chamber,
    jet velocity), likewise for each unexplained entry; Ljung-Box Q of each channel's held-out
    residual and its cross-correlation with the current command, before and after the findings.
@@ -43,12 +43,12 @@ from pneumatics.jetpipe.effects import JetpipeEffects
 from pneumatics.jetpipe.params import JetpipeCfg
 from pneumatics.recording import Recording
 
-from . import lsq
-from .doctor import _bootstrap_inclusion
-from .jetpipe_data import HOLDOUT, load_traces
-from .jetpipe_regimes import concentrate, features
-from .jetpipe_replay import RESTART_S, measured, replay
-from .regimes import LB_LAGS, input_xcorr, ljung_box, ljung_box_p
+from identification.base import lsq
+from identification.doctor.valve_arm.diagnose import _bootstrap_inclusion
+from .data import HOLDOUT, load_traces
+from .regimes import concentrate, features
+from .replay import RESTART_S, measured, replay
+from identification.doctor.valve_arm.regimes import LB_LAGS, input_xcorr, ljung_box, ljung_box_p
 
 KEEP = 0.20          # held-out reduction of J an effect must bring to be named
 MIN_DJ = 1.0         # ... and at least one noise variance (J is in noise variances summed over the

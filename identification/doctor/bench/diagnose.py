@@ -1,6 +1,6 @@
 """The mismatch finder for bench rigs (``pneumasim doctor --model bench_chamber|bench_cylinder``).
 
-Same report contract as :mod:`identification.doctor` (DESIGN.md "The mismatch finder"), for
+Same report contract as :mod:`identification.doctor.valve_arm.diagnose` (DESIGN.md "The mismatch finder"), for
 test benches whose physics is small enough to fit every hypothesis outright:
 
 * **bench_chamber** (a chamber charged, then shut): the nominal model holds the pressure.
@@ -29,8 +29,8 @@ from pneumatics.effects import seal_friction
 from pneumatics.errors import RecordingError
 from pneumatics.recording import Recording
 
-from . import lsq
-from .bench_model import BenchChamberCfg, BenchCylinderCfg, for_recording, load_bench
+from identification.base import lsq
+from pneumatics.bench.model import BenchChamberCfg, BenchCylinderCfg, for_recording, load_bench
 
 HOLDOUT = 0.3          # share of each recording held out (its end) when no held-out file is given
 KEEP = 0.20            # held-out mean-square reduction an effect must bring to be named
@@ -55,7 +55,7 @@ def diagnose_bench(model: str, recordings: list[Recording], holdouts: list[Recor
             raise RecordingError(f"{r.source}: recorded for model {r.meta['model']!r} (sidecar), "
                                  f"diagnosed as {model!r}")
     if isinstance(cfg, BenchChamberCfg):
-        from .bench_chamber_fit import diagnose_chamber
+        from .chamber_fit import diagnose_chamber
 
         return diagnose_chamber(model, cfg, recordings, list(holdouts), holdout_fraction)
     return diagnose_cylinder(model, cfg, recordings, list(holdouts), holdout_fraction)

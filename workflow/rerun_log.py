@@ -51,7 +51,7 @@ chunk plus ~0.2-0.3 us per entity and frame (most of it the file encoder, LZ4, i
 thread), far less than one ``rr.log`` per entity and frame (~70 us each) or one
 ``rr.send_columns`` per entity and flush (~200 us each, in Python).  Forces, being affine in
 the pressures, are computed per batch rather than per frame.  :func:`measure_overhead` (``python
--m pneumatics.rerun_log [model ...]``) times logging against the bare simulation.
+-m workflow.rerun_log [model ...]``) times logging against the bare simulation.
 """
 from __future__ import annotations
 
@@ -62,7 +62,6 @@ import time as _time
 import uuid
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -71,7 +70,7 @@ import pyarrow as pa
 import rerun as rr
 import rerun.blueprint as rrb
 
-from .robot import Robot
+from pneumatics.robot import Robot
 
 TIMELINE = "sim_time"
 PA_PER_BAR = 1e5
@@ -119,19 +118,6 @@ _TIME_FIELD = pa.field(TIMELINE, pa.duration("ns"), metadata={"rerun:index_name"
 
 def _vec_array(x: np.ndarray, n: int) -> pa.Array:
     return pa.FixedSizeListArray.from_arrays(pa.array(np.ascontiguousarray(x, np.float32).ravel()), n)
-
-
-@dataclass
-class RerunRobot:
-    """What :class:`RerunLogger` reads of a robot — for models that are not built by
-    :func:`pneumatics.robot.load_robot` (jet-pipe, hydraulic) but have an MJCF and recordings."""
-
-    name: str
-    model: mujoco.MjModel
-    joint_names: list
-    qpos_index: np.ndarray
-    actuator_names: list
-    chamber_names: list  # [(actuator, "a" | "b"), ...]
 
 
 class RerunLogger:
@@ -541,7 +527,7 @@ def _affine_forces(sim):
     that overrides it may depend on more than the pressures), probed and checked on random
     pressures (restored afterwards); ``None`` (per-frame calls) otherwise.
     """
-    from .sim import Simulation
+    from pneumatics.sim import Simulation
 
     if getattr(type(sim), "forces", None) is not Simulation.forces:
         return None
@@ -596,8 +582,8 @@ def measure_overhead(model: str = "arm2", seconds: float = 10.0, log_hz: float =
     """
     import tempfile
 
-    from .robot import load_robot
-    from .sim import Simulation
+    from pneumatics.robot import load_robot
+    from pneumatics.sim import Simulation
 
     robot = load_robot(model)
     sim = Simulation(robot)
@@ -639,7 +625,7 @@ def measure_overhead(model: str = "arm2", seconds: float = 10.0, log_hz: float =
             "setup_ms": 1e3 * min(setup), "rrd_bytes": size}
 
 
-if __name__ == "__main__":  # python -m pneumatics.rerun_log [model ...]
+if __name__ == "__main__":  # python -m workflow.rerun_log [model ...]
     for name in sys.argv[1:] or ["arm2"]:
         r = measure_overhead(name)
         print(f"{name}: {r['frames']} frames; wall: bare {r['bare_us_per_frame']:.1f} us/frame, logged "

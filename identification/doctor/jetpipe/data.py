@@ -19,7 +19,7 @@ from pneumatics.errors import RecordingError
 from pneumatics.jetpipe.params import JetpipeCfg, load_jetpipe_cfg
 from pneumatics.recording import Recording
 
-from .jetpipe_replay import BURN_IN_S, Trace, make_trace
+from .replay import BURN_IN_S, Trace, make_trace
 
 HOLDOUT = 0.3             # share of each recording held out (its end) without held-out files
 MAX_PISTON_TRAVEL_M = 5e-4  # the replay holds the piston still: it must stay on the stopper

@@ -1,4 +1,4 @@
-"""Compiled twin of :meth:`identification.pneumatic.ChamberModel.step_reference`: one 1 ms step
+"""Compiled twin of :meth:`identification.doctor.valve_arm.pneumatic.ChamberModel.step_reference`: one 1 ms step
 of paper 002 eq. 9 for a batch (W, C) of chamber sets, with the doctor's pneumatic hypotheses
 (valve leak near null, external and piston leaks, calibration scales, supply droop, heat transfer).
 

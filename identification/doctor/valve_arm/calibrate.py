@@ -1,21 +1,21 @@
 """Calibration first: fit the nominal model's own parameters before blaming missing physics.
 
 * Chambers: per chamber, scales of the valve's supply and exhaust areas and of the dead
-  volume, by short pressure replays (:mod:`identification.pneumatic`), bounded to
+  volume, by short pressure replays (:mod:`identification.doctor.valve_arm.pneumatic`), bounded to
   [1/1.35, 1.35] — a real robot's ±10 % with room to spare, not enough to mimic an effect.
 * Rigid body: per moving body a mass-and-inertia scale, per joint the damping and the
   armature, by linear least squares on the inverse-dynamics torque (:mod:`mechanics`),
   bounded to +-35 % (damping +-30 %: more is viscous_friction, armature -50..+200 %:
   the pistons' reflected inertia is poorly known).
 
-Both return an :class:`identification.lsq.Fit` with standard errors.
+Both return an :class:`identification.base.lsq.Fit` with standard errors.
 """
 from __future__ import annotations
 
 import numpy as np
 from scipy.sparse import lil_matrix
 
-from . import lsq
+from identification.base import lsq
 from .pneumatic import PneumaticMods, Windows, replay
 
 SCALE_BOUND = 1.35
@@ -23,7 +23,7 @@ SCALE_BOUND = 1.35
 
 def pressure_sigma(exp) -> float:
     """Noise floor of the pressure sensors [Pa] (robust, from the data)."""
-    from .smoothing import noise_sd
+    from identification.base.smoothing import noise_sd
     return float(np.median([noise_sd(exp.p[:, c]) for c in range(exp.p.shape[1])]))
 
 

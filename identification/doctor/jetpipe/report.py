@@ -14,11 +14,11 @@ import numpy as np
 
 from pneumatics.io import atomic_save, atomic_write_json, atomic_write_text
 
-from .bench_report import _plt, _save
-from .jetpipe_doctor import CALIBRATION, _cfg, fitted_effects
-from .jetpipe_regimes import FEATURES
-from .jetpipe_replay import measured, replay
-from .report import _jsonable
+from identification.doctor.bench.report import _plt, _save
+from .diagnose import CALIBRATION, _cfg, fitted_effects
+from .regimes import FEATURES
+from .replay import measured, replay
+from identification.doctor.valve_arm.report import _jsonable
 
 UNITS = {"p_a": ("kPa", 1e-3), "p_b": ("kPa", 1e-3), "force": ("N", 1.0), "jet": ("mm", 1e3)}
 #: report channel -> recording column (DESIGN.md names, as JetpipeSim.run writes them)
@@ -79,7 +79,7 @@ def _rrd(report, ctx, runs, out: Path):
     """doctor.rrd: held-out measured / nominal (calibrated, no findings) / corrected traces,
     under ``measured/``, ``nominal/``, ``corrected/`` (``.../heldout<k>/`` with several files)."""
     from pneumatics.jetpipe.sim import JetpipeSim, build
-    from pneumatics.rerun_log import RerunLogger
+    from workflow.rerun_log import RerunLogger
 
     prob = ctx["problem"]
     robot = JetpipeSim(build(prob.cfg0)).rerun_robot()

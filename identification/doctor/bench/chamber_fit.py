@@ -29,8 +29,8 @@ from numba import njit
 
 from pneumatics.effects.external_leak import conductance_from_time_constant
 
-from . import lsq
-from .bench_doctor import (
+from identification.base import lsq
+from .diagnose import (
     ALIKE,
     KEEP,
     MAX_DT_K,
@@ -41,7 +41,7 @@ from .bench_doctor import (
     nrmse,
     split_parts,
 )
-from .bench_model import BenchChamberCfg, for_recording
+from pneumatics.bench.model import BenchChamberCfg, for_recording
 
 HYPS = ("none", "external_leak", "heat_transfer", "external_leak+heat_transfer",
         "external_leak+pressure_sensor_offset")

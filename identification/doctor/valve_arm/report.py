@@ -152,7 +152,7 @@ def _plots(report, replays, out: Path):
 
 
 def _rrd(report, replays, out: Path, robot):
-    from pneumatics.rerun_log import RerunLogger
+    from workflow.rerun_log import RerunLogger
 
     def save(tmp):  # atomic: a stopped run leaves the previous doctor.rrd whole
         logger = RerunLogger(robot, path=tmp, recording_name=f"doctor {report['model']}")

@@ -36,7 +36,7 @@ from scipy.signal import butter, sosfiltfilt
 from pneumatics.chamber import actuator_force
 
 from .data import Experiment
-from .lsq import Fit, _covariance
+from identification.base.lsq import Fit, _covariance
 
 #: the parallel low-pass sits at this fraction of the angle splines' half-amplitude frequency,
 #: where the spline passes q-double-dot within 0.2 % (H = 1 / (1 + 0.2^4), smoothing.spline_cutoff_hz).

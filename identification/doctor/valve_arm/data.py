@@ -16,7 +16,7 @@ from pneumatics.errors import RecordingError
 from pneumatics.recording import Recording, validate
 from pneumatics.robot import Robot
 
-from .smoothing import discrepancy_lambda, smooth_derivatives, spline_cutoff_hz
+from identification.base.smoothing import discrepancy_lambda, smooth_derivatives, spline_cutoff_hz
 
 FINE_DT = 1e-3
 
@@ -94,7 +94,7 @@ def _light_spline(t, y, fraction: float = 0.5):
     motions (which would bias the chamber stiffness and so the fitted dead volumes)."""
     from scipy.interpolate import make_smoothing_spline
 
-    from .smoothing import noise_sd
+    from identification.base.smoothing import noise_sd
     return make_smoothing_spline(t, y, lam=discrepancy_lambda(t, y, fraction * noise_sd(y)))
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from pneumatics.io import atomic_save, atomic_write_json, atomic_write_text
 
-from .report import _jsonable
+from identification.doctor.valve_arm.report import _jsonable
 
 
 def summary(report: dict) -> str:
@@ -62,7 +62,7 @@ def _save(fig, path: Path):
 
 
 def _plots_chamber(report, plot, out: Path) -> list[str]:
-    from .bench_chamber_fit import model_pressure
+    from .chamber_fit import model_pressure
 
     plt = _plt()
     tr, ho, ch, cfg, tc = plot["train"], plot["held"], plot["channel"], plot["cfg"], plot["tc"]

@@ -36,8 +36,8 @@ from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import ConfigError, PneumasimError, UnknownNameError
-from .io import atomic_write_json
+from pneumatics.errors import ConfigError, PneumasimError, UnknownNameError
+from pneumatics.io import atomic_write_json
 
 BACKENDS = ("inline", "process", "ray")
 
@@ -463,7 +463,7 @@ def _run_process(fn, cases, tracker, n_workers):
     from multiprocessing.connection import wait
 
     fn_bytes = pickle.dumps(fn)
-    preload = [m for m in ("pneumatics.sweep", getattr(fn, "__module__", None)) if m and m != "__main__"]
+    preload = [m for m in ("workflow.sweep", getattr(fn, "__module__", None)) if m and m != "__main__"]
     idle = list(_POOL.take(n_workers, preload, need_main=getattr(fn, "__module__", None) == "__main__"))
     busy: dict = {}  # conn or sentinel -> worker
     try:
