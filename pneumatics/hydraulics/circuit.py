@@ -33,12 +33,11 @@ from ..errors import ConfigError
 from ..oil import OilCfg, orifice_flow_scalar
 from .kernel import pack, pack_ports, step_kernel
 from .lines import LineCfg, PowerCfg
+from ..oil import CAVITATION_FLOOR_PA
 from .servovalve import ServovalveCfg, metering_areas
 from .vane import VaneCfg
 
 STATE_NAMES = ("p_supply", "q_supply", "p_return", "q_return", "p_a", "p_b")
-CAVITATION_FLOOR_PA = 2.0e3
-"""Chamber pressures are kept above this (oil releases vapour and air below it)."""
 
 
 @dataclass(frozen=True)

@@ -10,14 +10,14 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ..oil import CAVITATION_FLOOR_PA
+
 MODE = {"valve": 0, "blocked": 1, "tap": 2}
 
 
 def pack(circuit) -> np.ndarray:
     """Flat parameter vector of a :class:`HydraulicCircuit` for :func:`step_kernel`."""
     v = circuit.vane
-    from .circuit import CAVITATION_FLOOR_PA
-
     return np.array([
         circuit.k, circuit.dp_t2, circuit.valve.port_width_m, circuit.valve.tip_travel_m,
         circuit.g_sp, circuit.g_pr, circuit.g_sr,

@@ -30,13 +30,13 @@ from numba import njit
 from pneumatics.effects.external_leak import conductance_from_time_constant
 
 from identification.base import lsq
-from .diagnose import (
+from .common import (
     ALIKE,
     KEEP,
     MAX_DT_K,
     MIN_DT_K,
     PARSIMONY,
-    _noise,
+    noise_sd,
     autocorrelation_inflation,
     nrmse,
     split_parts,
@@ -216,7 +216,7 @@ def diagnose_chamber(model, cfg: BenchChamberCfg, recordings, holdouts, fraction
     c = for_recording(cfg, rec)
     train, held = split_parts(recordings[:1], holdouts[:1], fraction)
     tr, ho = train[0], held[0]
-    noise = max(_noise(rec[ch]), c.pressure_resolution_pa / math.sqrt(12))
+    noise = max(noise_sd(rec[ch]), c.pressure_resolution_pa / math.sqrt(12))
     tc = closing_time(tr.time, tr[ch], noise, c.pressure_resolution_pa)
     ho_tc = tc if not holdouts else closing_time(ho.time, ho[ch], noise, c.pressure_resolution_pa)
     scored, fitted = {}, {}
