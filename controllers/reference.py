@@ -36,7 +36,9 @@ STORED_RATE_HZ = 50.0
 STANDARD_MARGIN_RAD = float(np.radians(5.0))
 
 
-def _min_jerk(s):
+def min_jerk(s):
+    """Minimum-jerk profile 10 s^3 - 15 s^4 + 6 s^5 of a normalised time s in [0, 1]
+    (Flash & Hogan 1985): 0 -> 1 with zero velocity and acceleration at both ends."""
     return 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5
 
 
@@ -155,7 +157,7 @@ def hand_moved(joint_names, joint_range, duration_s: float, seed: int, *, speed:
             extreme = rng.random() < extreme_probability
             target = rng.uniform(-1, 1, n) if not extreme else np.sign(rng.uniform(-1, 1, n)) * rng.uniform(0.85, 1.0, n)
             steps = max(2, int(rng.uniform(0.4, 0.9) * rate_hz))
-            s = _min_jerk(np.linspace(0, 1, steps))[:, None]
+            s = min_jerk(np.linspace(0, 1, steps))[:, None]
             seg = cur + (target - cur) * s
         elif kind == "hold":
             seg = np.repeat(cur[None], int(rng.uniform(0.4, 1.5) * rate_hz), axis=0)
@@ -169,7 +171,7 @@ def hand_moved(joint_names, joint_range, duration_s: float, seed: int, *, speed:
             phase = rng.uniform(0, 2 * np.pi, n)
             wave = amp * (np.sin(2 * np.pi * f * ratio * tt[:, None] + phase) - np.sin(phase))
             centre = np.clip(cur, -1 + amp, 1 - amp)
-            ramp = _min_jerk(np.clip(tt / 0.3, 0, 1))[:, None]
+            ramp = min_jerk(np.clip(tt / 0.3, 0, 1))[:, None]
             seg = cur + (centre - cur) * ramp + wave * ramp
             seg = np.clip(seg, -1, 1)
         pieces.append(seg)

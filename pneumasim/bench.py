@@ -134,7 +134,7 @@ def bench_sweep(quick: bool) -> dict:
     paid once per worker process, reported as ``worker_warmup_s``); then the three set-ups
     are timed ``repeats`` times, interleaved, best kept.  Other processes load this machine;
     the 1-minute load average is recorded beside the numbers."""
-    from workflow.sweep import _cpu_count, connect_ray, sweep
+    from workflow.sweep import connect_ray, cpu_count, sweep
     from scenarios.arm2_domain_sweep import track
 
     try:
@@ -144,7 +144,7 @@ def bench_sweep(quick: bool) -> dict:
     n, repeats = (8, 2) if quick else (16, 3)
     cases = [{"supply_pa": 7e5, "area_scale": 1.0, "seconds": 10.0, "seed": 100 + i} for i in range(n)]
     noop = [{"i": i} for i in range(200)]
-    out = {"cases": n, "case_simulated_s": 10.0, "cpus": _cpu_count(), "load_average_1min": os.getloadavg()[0]}
+    out = {"cases": n, "case_simulated_s": 10.0, "cpus": cpu_count(), "load_average_1min": os.getloadavg()[0]}
     t0 = time.perf_counter()
     sweep(track, cases[:2], workers=2, progress=False)  # warm both workers
     out["worker_warmup_s"] = time.perf_counter() - t0

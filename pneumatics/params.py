@@ -67,7 +67,8 @@ _GAS_RANGES = {
 }
 
 
-def _gas(table, where) -> GasCfg:
+def gas_cfg(table, where) -> GasCfg:
+    """The [gas] table of a fluid.toml as a checked GasCfg (``where`` names the file for errors)."""
     gas = from_table(GasCfg, table, where)
     for key, (lo, hi) in _GAS_RANGES.items():
         v = getattr(gas, key)
@@ -114,7 +115,7 @@ def parse_fluid(doc: dict, where: str) -> FluidCfg:
     if supply.supply_pa <= supply.room_pa:
         raise ConfigError(f"{where} [supply]: supply_pa = {supply.supply_pa:g} Pa must exceed room_pa = {supply.room_pa:g} Pa (absolute pressures)")
     return FluidCfg(
-        gas=_gas(doc.get("gas", {}), f"{where} [gas]"),
+        gas=gas_cfg(doc.get("gas", {}), f"{where} [gas]"),
         supply=supply,
         control=from_table(ControlCfg, doc.get("control", {}), f"{where} [control]"),
         sensors=from_table(SensorCfg, doc.get("sensors", {}), f"{where} [sensors]"),

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from controllers.perturbation import ExternalPush
-from controllers.reference import JointReference, _min_jerk
+from controllers.reference import JointReference, min_jerk
 
 from ._arm2_control import arm2, gains, references, run_controller
 from .common import main, plt
@@ -36,7 +36,7 @@ def repeated(ref, times: int = 3) -> tuple[JointReference, float]:
     dt = float(np.median(np.diff(ref.time)))
     q = ref.q
     n_ret = round(RETURN_S / dt)
-    s = _min_jerk(np.linspace(0.0, 1.0, n_ret))[:, None]
+    s = min_jerk(np.linspace(0.0, 1.0, n_ret))[:, None]
     back = q[-1] + (q[0] - q[-1]) * s
     hold = np.repeat(q[:1], round(HOLD_S / dt), axis=0)
     one = np.vstack([q, back[1:], hold])

@@ -61,12 +61,13 @@ def plan(fast: bool):
 FRICTION = {"coulomb_friction", "stiction"}
 
 
-def _same(a: str, b: str, strict: bool) -> bool:
+def same_family(a: str, b: str, strict: bool) -> bool:
+    """Named ``a`` counts for hidden ``b``: equal, or (lenient) both friction at low speed."""
     return a == b or (not strict and a in FRICTION and b in FRICTION)
 
 
 def judge(truth: dict, report: dict, strict: bool = False) -> dict:
-    return judge_effects(truth["effects"], report, lambda a, b: _same(a, b, strict), strict)
+    return judge_effects(truth["effects"], report, lambda a, b: same_family(a, b, strict), strict)
 
 
 def blind_case(case: dict) -> dict:
@@ -113,7 +114,7 @@ def run(ctx):
 def _confusion(rows, ctx):
     fams = list(BENCHMARK_FAMILIES) + ["none"]
     cols = fams + ["other"]
-    mat = confusion_matrix(rows, fams, cols, lambda n, t: _same(n, t, False))
+    mat = confusion_matrix(rows, fams, cols, lambda n, t: same_family(n, t, False))
     plot_confusion(ctx, mat, fams, cols, "doctor blind benchmark: confusion matrix\n"
                    "(an extra finding beside a right one counts in its row too)")
 

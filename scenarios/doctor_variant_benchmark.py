@@ -32,7 +32,7 @@ from ._benchmark import common_metrics, confusion_matrix, nrmse_reductions, plot
 from ._variantsim.cases import make_case
 from ._variantsim.effects import FAMILIES
 from .common import main
-from .doctor_blind_benchmark import _same, judge
+from .doctor_blind_benchmark import judge, same_family
 
 SUMMARY = "mismatch finder on effects in other functional forms (independent variant simulator)"
 
@@ -122,7 +122,7 @@ def run(ctx):
 def _confusion(rows, ctx):
     fams = list(FAMILIES) + ["none"]
     cols = fams + ["other"]
-    mat = confusion_matrix(rows, fams, cols, lambda n, t: _same(n, t, False))
+    mat = confusion_matrix(rows, fams, cols, lambda n, t: same_family(n, t, False))
     plot_confusion(ctx, mat, fams, cols, "doctor on the variant simulator (other functional forms): confusion matrix\n"
                    "(an extra finding beside a right one counts in its row too)")
 

@@ -240,7 +240,7 @@ def test_regime_concentration_finds_the_bin_that_holds_the_weight():
 
 
 def test_input_cross_correlation_sees_an_input_left_in_the_residual():
-    from identification.doctor.valve_arm.regimes import input_xcorr
+    from identification.base.statistics import input_xcorr
 
     rng = np.random.default_rng(1)
     u = np.cumsum(rng.normal(size=8000)) * 1e-3  # a coloured command

@@ -127,7 +127,7 @@ def sweep(fn, cases, *, out=None, backend="process", workers=None, ray_address=N
                 n_workers = 1
                 _run_inline(fn, cases, tracker)
             elif backend == "process":
-                n_workers = min(workers or _cpu_count(), len(todo))
+                n_workers = min(workers or cpu_count(), len(todo))
                 _run_process(fn, cases, tracker, n_workers)
             else:
                 n_workers = _run_ray(fn, cases, tracker, workers, ray_address)
@@ -310,7 +310,8 @@ def _run_inline(fn, cases, tracker):
         tracker.done(i, *_call(fn, copy.deepcopy(cases[i])))
 
 
-def _cpu_count() -> int:
+def cpu_count() -> int:
+    """CPUs this process may run on (its affinity mask; all CPUs where there is none)."""
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - not Linux
@@ -559,7 +560,7 @@ def connect_ray(address=None, num_cpus=None):
         return ray
     try:
         if address is None:
-            ray.init(num_cpus=num_cpus or _cpu_count(), include_dashboard=False, logging_level=logging.WARNING)
+            ray.init(num_cpus=num_cpus or cpu_count(), include_dashboard=False, logging_level=logging.WARNING)
         else:
             ray.init(address=address, logging_level=logging.WARNING)
     except (ConnectionError, RuntimeError, ValueError) as e:

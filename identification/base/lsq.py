@@ -28,7 +28,9 @@ class Fit:
         return {k: {"value": float(v), "stderr": float(s)} for k, v, s in zip(self.names, self.values, self.stderr)}
 
 
-def _covariance(jac, rss, n):
+def covariance(jac, rss, n):
+    """(standard errors, condition number) of a least-squares fit from its Jacobian (n rows),
+    residual sum of squares ``rss`` and the usual s^2 = rss / (n - p) (Gauss-Markov)."""
     if hasattr(jac, "toarray"):  # sparse Jacobian from jac_sparsity
         jac = jac.toarray()
     p = jac.shape[1]
@@ -53,7 +55,7 @@ def linear(A: np.ndarray, b: np.ndarray, names, weights: np.ndarray | None = Non
     theta, *_ = np.linalg.lstsq(A, b, rcond=None)
     res = b - A @ theta
     rss = float(res @ res)
-    se, cond = _covariance(A, rss, b.size)
+    se, cond = covariance(A, rss, b.size)
     return Fit(list(names), theta, se, rss, b.size, cond, [], res)
 
 
@@ -64,7 +66,7 @@ def nonlinear(fun, x0, names, lower=None, upper=None, **kw) -> Fit:
     upper = np.full(x0.size, np.inf) if upper is None else np.asarray(upper, float)
     r = least_squares(fun, x0, bounds=(lower, upper), x_scale="jac", **kw)
     rss = float(r.fun @ r.fun)
-    se, cond = _covariance(r.jac, rss, r.fun.size)
+    se, cond = covariance(r.jac, rss, r.fun.size)
     span = np.where(np.isfinite(upper - lower), upper - lower, 1.0)
     at = [n for n, v, lo, hi, s in zip(names, r.x, lower, upper, span)
           if (np.isfinite(lo) and v - lo < 1e-3 * s) or (np.isfinite(hi) and hi - v < 1e-3 * s)]

@@ -22,7 +22,7 @@ from pathlib import Path
 from ..config import from_table, read_toml, spec
 from ..errors import ConfigError
 from ..medium import GasCfg
-from ..params import ControlCfg, _gas
+from ..params import ControlCfg, gas_cfg
 
 
 @dataclass(frozen=True)
@@ -123,7 +123,7 @@ def parse_jetpipe(doc: dict, where: str) -> JetpipeCfg:
             raise ConfigError(f"{where}: unknown table [{key}]; valid: gas, {', '.join(_SECTIONS)}")
     parts = {name: from_table(cls, doc.get(name, {}), f"{where} [{name}]") for name, cls in _SECTIONS.items()}
     parts["hysteresis"] = dataclasses.replace(parts["hysteresis"], n_operators=int(parts["hysteresis"].n_operators))
-    cfg = JetpipeCfg(gas=_gas(doc.get("gas", {}), f"{where} [gas]"), **parts)
+    cfg = JetpipeCfg(gas=gas_cfg(doc.get("gas", {}), f"{where} [gas]"), **parts)
     s, c, p = cfg.supply, cfg.cylinder, cfg.ports
     if s.supply_pa <= s.room_pa:
         raise ConfigError(f"{where} [supply]: supply_pa = {s.supply_pa:g} Pa must exceed room_pa = {s.room_pa:g} Pa "

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pneumatics.io import atomic_save, atomic_write_json, atomic_write_text
+from pneumatics.io import atomic_write_json, atomic_write_text
 
-from identification.doctor.valve_arm.report import _jsonable
+from identification.base.reporting import jsonable, pyplot, save_figure
 
 
 def summary(report: dict) -> str:
@@ -37,7 +37,7 @@ def write(report: dict, out: str | Path, plots: bool = True) -> Path:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     plot = report.pop("_plot", None)
-    atomic_write_json(out / "report.json", _jsonable(report))
+    atomic_write_json(out / "report.json", jsonable(report))
     pngs = []
     if plot is not None and plots:
         pngs = _plots_chamber(report, plot, out) if report["diagnostics"]["kind"] == "bench_chamber" \
@@ -48,23 +48,10 @@ def write(report: dict, out: str | Path, plots: bool = True) -> Path:
     return out / "report.json"
 
 
-def _plt():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
-
-
-def _save(fig, path: Path):
-    plt = _plt()
-    atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=100, bbox_inches="tight"))
-    plt.close(fig)
-
-
 def _plots_chamber(report, plot, out: Path) -> list[str]:
     from .chamber_fit import model_pressure
 
-    plt = _plt()
+    plt = pyplot()
     tr, ho, ch, cfg, tc = plot["train"], plot["held"], plot["channel"], plot["cfg"], plot["tc"]
     t = np.concatenate([tr.time, ho.time])
     meas = np.concatenate([tr[ch], ho[ch]])
@@ -88,12 +75,12 @@ def _plots_chamber(report, plot, out: Path) -> list[str]:
     lim = max(5 * report["diagnostics"]["pressure_noise_pa"], np.percentile(np.abs(meas - model_pressure(
         plot["best"], plot["scored"][plot["best"]]["fit"].values, t, tc, cfg)), 99) * 3) / 1e2
     axes[1].set_ylim(-lim, lim)
-    _save(fig, out / "pressure_hypotheses.png")
+    save_figure(fig, out / "pressure_hypotheses.png")
     return ["pressure_hypotheses.png"]
 
 
 def _plots_cylinder(report, plot, out: Path) -> list[str]:
-    plt = _plt()
+    plt = pyplot()
     tr, ho, scored, best = plot["train"], plot["held"], plot["scored"], plot["best"]
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     ax = axes[0]
@@ -117,7 +104,7 @@ def _plots_cylinder(report, plot, out: Path) -> list[str]:
     ax.set_ylabel("force [N]")
     ax.legend(fontsize=8, markerscale=5)
     ax.set_title(textwrap.fill(report["verdict_detail"], 90), fontsize=8)
-    _save(fig, out / "friction_fit.png")
+    save_figure(fig, out / "friction_fit.png")
     return ["friction_fit.png"]
 
 

@@ -25,7 +25,7 @@ rod, two chamber transducers, coil current, optionally the jet-position sensor):
    overall and in at least two 1 s windows (listed).
 6. **Guards and regimes** (held-out data): each kept effect's bootstrap inclusion probability
    (block bootstrap over held-out blocks of whether its J reduction still passes the keep rule,
-   :func:`identification.doctor.valve_arm.diagnose._bootstrap_inclusion`); the regime where its squared-residual
+   :func:`identification.base.statistics.bootstrap_inclusion`); the regime where its squared-residual
    reduction concentrates (:mod:`identification.doctor.jetpipe.regimes`: command level, jet distance
    from centre, time since a command reversal or step, pressure levels, flow into each chamber,
    jet velocity), likewise for each unexplained entry; Ljung-Box Q of each channel's held-out
@@ -44,11 +44,11 @@ from pneumatics.jetpipe.params import JetpipeCfg
 from pneumatics.recording import Recording
 
 from identification.base import lsq
-from identification.doctor.valve_arm.diagnose import _bootstrap_inclusion
+from identification.base.statistics import LB_LAGS, bootstrap_inclusion, input_xcorr, ljung_box, ljung_box_p
+
 from .data import HOLDOUT, load_traces
 from .regimes import concentrate, features
 from .replay import RESTART_S, measured, replay
-from identification.doctor.valve_arm.regimes import LB_LAGS, input_xcorr, ljung_box, ljung_box_p
 
 KEEP = 0.20          # held-out reduction of J an effect must bring to be named
 MIN_DJ = 1.0         # ... and at least one noise variance (J is in noise variances summed over the
@@ -104,7 +104,8 @@ HYPOTHESES = [
 ]
 
 
-def _cfg(cfg0: JetpipeCfg, dev) -> JetpipeCfg:
+def calibrated_cfg(cfg0: JetpipeCfg, dev) -> JetpipeCfg:
+    """``cfg0`` with each CALIBRATION group of fields scaled by (1 + its relative deviation in ``dev``)."""
     cfg = cfg0
     for (name, sec, fields), d in zip(CALIBRATION, dev):
         s = getattr(cfg, sec)
@@ -126,7 +127,7 @@ class _Problem:
 
     def residuals(self, traces, dev, fx) -> dict:
         """channel -> (M,) measured - model over the scored samples of all ``traces``."""
-        cfg = _cfg(self.cfg0, dev)
+        cfg = calibrated_cfg(self.cfg0, dev)
         out = {c: [] for c in self.channels}
         for tr in traces:
             pred, meas = replay(tr, cfg, fx), measured(tr)
@@ -185,7 +186,7 @@ def _nrmse(traces, res: list[dict], channel, mask=None) -> float:
 def _windows(prob, traces, dev, fx_before, fx_after, channel, width_s=1.0):
     """Held-out 1 s windows [t0, t1] where the finding cut the channel's residual most."""
     out = []
-    cfg = _cfg(prob.cfg0, dev)
+    cfg = calibrated_cfg(prob.cfg0, dev)
     for tr in traces:
         a = measured(tr)[channel] - replay(tr, cfg, fx_before)[channel]
         b = measured(tr)[channel] - replay(tr, cfg, fx_after)[channel]
@@ -220,7 +221,7 @@ def select_hypotheses(names=None) -> list[Hypothesis]:
 
 def _sample_residuals(prob, traces, dev, fx) -> list[dict]:
     """Per trace: channel -> (N,) measured - model (every sample; ``trace.scored`` marks the scored)."""
-    cfg = _cfg(prob.cfg0, dev)
+    cfg = calibrated_cfg(prob.cfg0, dev)
     out = []
     for tr in traces:
         pred, meas = replay(tr, cfg, fx), measured(tr)
@@ -297,7 +298,7 @@ def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Rec
     j_now, dev_base = j_base, dev.copy()
     # regime features of the held-out data, from the measurement and the calibrated model
     res_base = _sample_residuals(prob, held, dev_base, none)
-    cfg_base = _cfg(cfg0, dev_base)
+    cfg_base = calibrated_cfg(cfg0, dev_base)
     feats_per = [features(t.time, t.command_a, t.p_a, t.p_b, replay(t, cfg_base, none), cfg_base.jet.offset_m)
                  for t in held]
     feats = {k: np.concatenate([f[k][t.scored] for t, f in zip(held, feats_per)]) for k in feats_per[0]}
@@ -341,7 +342,7 @@ def diagnose_jetpipe(model: str, recordings: list[Recording], holdouts: list[Rec
         # where the held-out improvement lies, and how sure: block bootstrap of the keep rule
         # (relative cut >= KEEP and absolute cut >= MIN_DJ, the latter as a share of J before)
         w_before, w_after = _weighted(prob, res_now), _weighted(prob, res_new)
-        inclusion = _bootstrap_inclusion(_block_sums(held, w_before, block_s), _block_sums(held, w_after, block_s),
+        inclusion = bootstrap_inclusion(_block_sums(held, w_before, block_s), _block_sums(held, w_after, block_s),
                                          max(KEEP, MIN_DJ / j_now))
         reduction = _scored(held, w_before) - _scored(held, w_after)
         where_reg = concentrate(reduction, feats)
@@ -442,7 +443,7 @@ def fitted_effects(report: dict) -> JetpipeEffects:
 
 
 def _worst_windows(prob, traces, dev, fx, channel, width_s=1.0):
-    cfg = _cfg(prob.cfg0, dev)
+    cfg = calibrated_cfg(prob.cfg0, dev)
     out = []
     for tr in traces:
         r = measured(tr)[channel] - replay(tr, cfg, fx)[channel]

@@ -14,11 +14,11 @@ import numpy as np
 
 from pneumatics.io import atomic_save, atomic_write_json, atomic_write_text
 
-from identification.doctor.bench.report import _plt, _save
-from .diagnose import CALIBRATION, _cfg, fitted_effects
+from identification.base.reporting import jsonable, pyplot, save_figure
+
+from .diagnose import CALIBRATION, calibrated_cfg, fitted_effects
 from .regimes import FEATURES
 from .replay import measured, replay
-from identification.doctor.valve_arm.report import _jsonable
 
 UNITS = {"p_a": ("kPa", 1e-3), "p_b": ("kPa", 1e-3), "force": ("N", 1.0), "jet": ("mm", 1e3)}
 #: report channel -> recording column (DESIGN.md names, as JetpipeSim.run writes them)
@@ -51,7 +51,7 @@ def write(report: dict, out: str | Path, plots: bool = True, rerun: bool = True)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     ctx = report.pop("_plot", None)
-    atomic_write_json(out / "report.json", _jsonable(report))
+    atomic_write_json(out / "report.json", jsonable(report))
     pngs = []
     if ctx is not None and (plots or rerun):
         runs = _replays(report, ctx)  # the held-out replays, shared by the plot and the .rrd
@@ -70,7 +70,7 @@ def _replays(report, ctx):
     """Per held-out trace: (trace, measured, calibrated without findings, with findings)."""
     prob, held = ctx["problem"], ctx["held"]
     dev = np.array([report["calibration_change"][c[0]]["relative"] for c in CALIBRATION])
-    cfg = _cfg(prob.cfg0, dev)
+    cfg = calibrated_cfg(prob.cfg0, dev)
     fx = fitted_effects(report)
     return [(tr, measured(tr), replay(tr, cfg, type(fx)()), replay(tr, cfg, fx)) for tr in held]
 
@@ -99,7 +99,7 @@ def _rrd(report, ctx, runs, out: Path):
 
 def _plot_fit(report, ctx, run, out: Path) -> str:
     """``run``: (trace, measured, calibrated without findings, with findings) of one held-out trace."""
-    plt = _plt()
+    plt = pyplot()
     prob = ctx["problem"]
     tr, meas, before, after = run
     win = report["findings"][0]["windows"][0] if report["findings"] and report["findings"][0]["windows"] else \
@@ -118,13 +118,13 @@ def _plot_fit(report, ctx, run, out: Path) -> str:
     np.atleast_1d(axes)[0].legend(fontsize=7)
     np.atleast_1d(axes)[0].set_title(f"held-out window: {report['verdict_detail']}", fontsize=9)
     np.atleast_1d(axes)[-1].set_xlabel("time [s]")
-    _save(fig, out / "heldout_fit.png")
+    save_figure(fig, out / "heldout_fit.png")
     return "heldout_fit.png"
 
 
 def _plot_regimes(entries, out: Path) -> str:
     """Binned mean of the noise-weighted squared residual vs each entry's regime feature."""
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(1, len(entries), figsize=(4.5 * len(entries), 3.4), squeeze=False)
     for ax, e in zip(axes[0], entries):
         name = e["feature"] or "current command"
@@ -142,7 +142,7 @@ def _plot_regimes(entries, out: Path) -> str:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     fig.tight_layout()
-    _save(fig, out / "regimes.png")
+    save_figure(fig, out / "regimes.png")
     return "regimes.png"
 
 
@@ -188,7 +188,7 @@ def _markdown(report: dict, pngs) -> str:
     lines += [f"- {k}: {100 * v['relative']:+.1f} % ± {100 * v['stderr']:.1f} %" for k, v in report["calibration_change"].items()]
     lines += ["", "## Diagnostics", ""]
     skip = {"ljung_box_heldout", "input_xcorr_heldout"}
-    lines += [f"- {k}: {v}" for k, v in _jsonable(d).items() if k not in skip]
+    lines += [f"- {k}: {v}" for k, v in jsonable(d).items() if k not in skip]
     lines.append("")
     lines += [f"![{p}]({p})" for p in pngs]
     lines += ["", ("Traces (measured, nominal = calibrated without the findings, corrected = with them) of the "

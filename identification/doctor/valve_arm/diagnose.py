@@ -32,15 +32,16 @@ from .hypotheses import (
 )
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
 from .pneumatic import PneumaticMods, Windows, replay
-from .regimes import (
-    chamber_regimes,
+from identification.base.statistics import (
+    bootstrap_inclusion,
     input_xcorr,
-    joint_regimes,
     ljung_box,
     ljung_box_p,
     locate_regime,
     windows,
 )
+
+from .regimes import chamber_regimes, joint_regimes
 from .replay import MechMods, coupled_replay
 from .screening import (
     Scored,
@@ -274,7 +275,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             r = ((p_before - meas_h)[:, :, cs] ** 2).sum(axis=2).ravel() ** 0.5
             e_before = ((p_before - meas_h)[:, :, cs] ** 2).sum(axis=(1, 2))
             e_after = (res_h[:, :, cs] ** 2).sum(axis=(1, 2))
-            f.inclusion = _bootstrap_inclusion(e_before, e_after, PNEU_KEEP)
+            f.inclusion = bootstrap_inclusion(e_before, e_after, PNEU_KEEP)
             reg = chamber_regimes(held, cs[0])
             f.regime, lift, share = locate_regime(r, {k: v[idx_h] for k, v in reg.items()})
             f.regimes = reg
@@ -291,7 +292,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
                                                     final_rfit.values)
             after = np.where(td_h.valid, after, 0.0)
             nb_ = r.size // 100
-            f.inclusion = _bootstrap_inclusion((r[: nb_ * 100] ** 2).reshape(nb_, 100).sum(1),
+            f.inclusion = bootstrap_inclusion((r[: nb_ * 100] ** 2).reshape(nb_, 100).sum(1),
                                                (after[: nb_ * 100] ** 2).reshape(nb_, 100).sum(1), MECH_KEEP)
     unexplained = [_outside_torque(robot, held, td_h, rfit, j, f, gain) for j, f, gain in outside]
     rms_c = np.sqrt(np.mean(res_h ** 2, axis=(0, 1)))
@@ -611,17 +612,6 @@ def _channels(f: Finding, robot) -> list[str]:
     if "actuator" in w:
         return [f"p_a.{w['actuator']}", f"p_b.{w['actuator']}"]
     return [f"p_{c}.{a}" for a, c in robot.chamber_names]
-
-
-def _bootstrap_inclusion(e_before, e_after, keep: float, n: int = 500, seed: int = 0) -> float:
-    """Share of block-bootstrap resamples of the held-out windows (blocks) in which the effect
-    still removes at least the keep threshold of the residual energy."""
-    if e_before.size == 0:
-        return float("nan")
-    rng = np.random.default_rng(seed)
-    idx = rng.integers(0, e_before.size, (n, e_before.size))
-    gain = 1.0 - e_after[idx].sum(1) / np.maximum(e_before[idx].sum(1), 1e-300)
-    return float(np.mean(gain >= keep))
 
 
 def _evidence(f: Finding) -> str:

@@ -36,7 +36,7 @@ from scipy.signal import butter, sosfiltfilt
 from pneumatics.chamber import actuator_force
 
 from .data import Experiment
-from identification.base.lsq import Fit, _covariance
+from identification.base.lsq import Fit, covariance
 
 #: the parallel low-pass sits at this fraction of the angle splines' half-amplitude frequency,
 #: where the spline passes q-double-dot within 0.2 % (H = 1 / (1 + 0.2^4), smoothing.spline_cutoff_hz).
@@ -290,7 +290,7 @@ def _bounded_fit(A2, y2, names, lo, hi, free, held) -> Fit:
     x[free] = r.x
     res = y_f - A2[:, free] @ r.x
     rss = float(res @ res)
-    se[free], cond = _covariance(A2[:, free], rss, y2.size)
+    se[free], cond = covariance(A2[:, free], rss, y2.size)
     at = [n for n, v, a, b, f in zip(names, x, lo, hi, free)
           if f and ((np.isfinite(a) and v - a < 1e-6) or (np.isfinite(b) and b - v < 1e-6))]
     return Fit(names, x, se, rss, y2.size, cond, at, res)

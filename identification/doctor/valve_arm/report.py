@@ -11,6 +11,8 @@ import numpy as np
 from pneumatics.io import atomic_save, atomic_write_json, atomic_write_text
 from pneumatics.recording import Recording
 
+from identification.base.reporting import jsonable
+
 
 def summary(report: dict) -> str:
     d = report["diagnostics"]
@@ -46,7 +48,7 @@ def write(report: dict, out: str | Path, robot=None, rerun: bool = True) -> Path
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     replays = report.pop("_replays", None)
-    atomic_write_json(out / "report.json", _jsonable(report))
+    atomic_write_json(out / "report.json", jsonable(report))
     pngs = []
     if replays:
         pngs = _plots(report, replays, out)
@@ -56,18 +58,6 @@ def write(report: dict, out: str | Path, robot=None, rerun: bool = True) -> Path
     if replays:
         report["_replays"] = replays
     return out / "report.json"
-
-
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {k: _jsonable(v) for k, v in x.items() if not k.startswith("_")}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, (np.floating, np.integer)):
-        return x.item()
-    if isinstance(x, float) and not np.isfinite(x):
-        return None
-    return x
 
 
 def _plots(report, replays, out: Path):
