@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from workflow.rerun_log import RerunLogger
+from workflow.rerun_log.geometry import drawn_geoms
 from pneumatics.sim import Simulation
 
 rr = pytest.importorskip("rerun")
@@ -168,7 +169,7 @@ def test_geometry_of_every_geom_type(tmp_path):
     sim = types.SimpleNamespace(data=data, pressure=np.zeros(0), command=np.zeros(0), forces=lambda: np.zeros(0))
     path = tmp_path / "geoms.rrd"
     with RerunLogger(robot, path) as logger:
-        kinds = {p: type(shape).__name__ for _, p, shape in logger._geoms()}
+        kinds = {p: type(shape).__name__ for _, p, shape in drawn_geoms(logger.model, logger.body_paths)}
         for _ in range(20):
             mujoco.mj_step(model, data)
             logger.log_frame(sim)
