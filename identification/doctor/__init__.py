@@ -1,0 +1,95 @@
+"""The mismatch finder, ``pneumasim doctor``: one entry for every kind of model.
+
+Each plant kind has its own doctor in a folder of its own, all writing the report contract of
+DESIGN.md ("The mismatch finder"):
+
+=============  ====================================================================
+``valve_arm``  arm2, humanoid38 (Kokoro valves, cylinders, MuJoCo arm): :mod:`.valve_arm`
+``jetpipe``    the jet-pipe servo actuator on its stopper bench: :mod:`.jetpipe`
+``bench``      lab benches (a sealed chamber, a cylinder on a load cell): :mod:`.bench`
+=============  ====================================================================
+
+What they share (statistics, least squares, smoothing, report pieces) is in
+:mod:`identification.base`.  Usage::
+
+    from identification.doctor import diagnose, summary, write
+    report = diagnose("arm2", recordings, holdouts, progress=print)
+    write(report, "runs/doctor")
+    print(summary(report))
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import models
+from pneumatics.errors import UnknownNameError
+
+#: the model kinds a doctor exists for (models/<name>/fluid.toml ``kind``)
+KINDS = ("valve_arm", "jetpipe", "bench")
+
+
+def kind_of(model: str) -> str:
+    """The doctor kind of shipped model ``model``; an error names the models a doctor reads."""
+    kind = models.model_kind(model)  # raises UnknownModelError listing the models
+    if kind not in KINDS:
+        raise UnknownNameError("doctor model", model,
+                               [m for m in models.available() if models.model_kind(m) in KINDS])
+    return kind
+
+
+def diagnose(model: str, recordings: list, holdouts: list = (), progress: Callable[[str], None] | None = None) -> dict:
+    """Diagnose ``recordings`` (``pneumatics.recording.Recording``) of shipped model ``model``
+    with its kind's doctor; ``holdouts`` are judged on (default: the end of each recording).
+    ``progress(message)`` is called at each stage.  Returns the report dict (report.json
+    plus private ``_``-keys the writers use)."""
+    kind = kind_of(model)
+    if kind == "valve_arm":
+        from pneumatics.robot import load_robot
+
+        from .valve_arm.diagnose import diagnose as diagnose_arm
+
+        report = diagnose_arm(load_robot(model), recordings, list(holdouts), progress=progress)
+    elif kind == "jetpipe":
+        from .jetpipe.diagnose import diagnose_jetpipe
+
+        report = diagnose_jetpipe(model, recordings, list(holdouts), progress=progress)
+    else:
+        from .bench.diagnose import diagnose_bench
+
+        if progress:
+            progress("fitting the bench hypotheses")
+        report = diagnose_bench(model, recordings, list(holdouts))
+    report.setdefault("model", model)
+    return report
+
+
+def write(report: dict, out: str | Path) -> Path:
+    """Write the report's files (report.json, report.md, plots, doctor.rrd where the kind has
+    one) into folder ``out``."""
+    kind = kind_of(report["model"])
+    if kind == "valve_arm":
+        from pneumatics.robot import load_robot
+
+        from .valve_arm.report import write as write_arm
+
+        return write_arm(report, out, load_robot(report["model"]))
+    if kind == "jetpipe":
+        from .jetpipe.report import write as write_jetpipe
+
+        return write_jetpipe(report, out)
+    from .bench.report import write as write_bench
+
+    return write_bench(report, out)
+
+
+def summary(report: dict) -> str:
+    """The ten-second summary of a report, as ``pneumasim doctor`` prints it."""
+    kind = kind_of(report["model"])
+    if kind == "valve_arm":
+        from .valve_arm.report import summary as summary_kind
+    elif kind == "jetpipe":
+        from .jetpipe.report import summary as summary_kind
+    else:
+        from .bench.report import summary as summary_kind
+    return summary_kind(report)
