@@ -11,7 +11,9 @@ For each model, from the same initial state (``home``, chambers at 4 bar, valves
 
 Each is timed ``repeats`` times, interleaved, and the best time is kept (the usual rule for
 micro-benchmarks on a shared machine: noise only ever adds time).  ``ratio`` is full time per
-step over bare time per step (1.0 = the fluid layer is free).
+step over bare time per step (1.0 = the fluid layer is free).  The same run also times the
+paths of :mod:`pneumasim.bench_paths` against MuJoCo's own C loop (``ratio_vs_c``,
+``closed_loop_ratio_vs_c``) and the doctor's chamber replays.
 """
 from __future__ import annotations
 
@@ -24,6 +26,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from pneumasim.bench_paths import bench_doctor_replay, bench_paths
 from pneumatics.io import atomic_write_json
 from pneumatics.robot import load_robot
 from pneumatics.sim import Simulation
@@ -189,6 +192,8 @@ def run_bench(quick: bool = False, out: str | Path = "runs/bench") -> dict:
             continue
         n = steps if name == "arm2" else steps // 4
         results[name] = bench_model(name, n, repeats=3)
+        results[name].update(bench_paths(name, n * 1e-3 / 2, repeats=3))
+    results["doctor_replay"] = bench_doctor_replay(10.0 if quick else 30.0)
     results["doctor"] = bench_doctor(quick)
     results["sweep"] = bench_sweep(quick)
     _print_table(results)
@@ -212,6 +217,19 @@ def _print_table(results: dict):
                       f"{r['ratio']:.2f}", f"{r['realtime_factor']:.0f}",
                       f"{r['rerun_overhead']:+.0%}" if "rerun_overhead" in r else "-")
     Console().print(table)
+    paths = Table(title="against MuJoCo's C loop (mujoco.rollout), commands changing at 100 Hz")
+    for col in ("model", "C steps/s", "Python mj_step", "open loop", "closed loop (PIDF)", "ratio_vs_c",
+                "closed_loop_ratio_vs_c"):
+        paths.add_column(col, justify="right")
+    for name, r in results.items():
+        if "bare_c_steps_per_s" in r:
+            paths.add_row(name, f"{r['bare_c_steps_per_s']:,.0f}", f"{r['bare_py_steps_per_s']:,.0f}",
+                          f"{r['full_open_loop_steps_per_s']:,.0f}", f"{r['full_closed_loop_steps_per_s']:,.0f}",
+                          f"{r['ratio_vs_c']:.2f}", f"{r['closed_loop_ratio_vs_c']:.2f}")
+    Console().print(paths)
+    if "doctor_replay" in results:
+        r = results["doctor_replay"]
+        print(f"doctor chamber replays: {1e3 * r['seconds_per_data_second']:.1f} ms per second of arm2 data")
     if "doctor" in results:
         d = results["doctor"]
         print(f"doctor: {d['recording_seconds']:.0f} s + {d['heldout_seconds']:.0f} s held out of arm2 at 100 Hz "
