@@ -191,8 +191,8 @@ def _stop_regs(exp, j, stop, side):
 #: give at most 5.7 N m (shoulder: 6 bar over a 20 mm bore on a 30 mm arm) and 3.0 N m (elbow),
 #: which a 20 N m/rad bumper lets in by 0.29 and 0.15 rad, already a soft one (the stops of the
 #: simulator, a 5 ms MuJoCo soft limit, are fitted at 170-300 N m/rad).  A fit that wants less
-#: is a weak spring standing in for something else (an angle offset makes blind-benchmark seed
-#: 1026 fit 1.4 N m/rad), so the fit is bounded here and a stiffness stuck at the bound is rejected.
+#: is a weak spring standing in for something else (an angle offset makes doctor_blind_benchmark
+#: seed 1026 fit 1.4 N m/rad), so the fit is bounded here and a stiffness stuck at the bound is rejected.
 END_STOP_MIN_STIFFNESS_NM_PER_RAD = 20.0
 
 
