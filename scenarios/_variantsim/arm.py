@@ -1,5 +1,5 @@
-"""An independent arm2 simulator written from ``/work/shared/reference/arm2.md`` and paper 002
-only: its own MJCF (two hinges), its own chamber ODEs (:mod:`.kernel`), its own PIDF
+"""An independent arm2 simulator written from the arm2 reference numbers
+(``reference/arm2.md`` beside DESIGN.md) and paper 002 only: its own MJCF (two hinges), its own chamber ODEs (:mod:`.kernel`), its own PIDF
 controller at 100 Hz with zero-order hold, DAQ averaging and sensor noise.
 
 Nothing here imports pneumasim (``pneumatics``, ``identification``, ``controllers``,

@@ -2,7 +2,8 @@
 cylinders, transmission and joint friction, with every variant effect switched by its
 parameter row (0 = off).
 
-Written from ``/work/shared/reference/arm2.md`` and paper 002 only (no pneumasim import).
+Written from the arm2 reference numbers (``reference/arm2.md`` beside DESIGN.md) and paper 002
+only (no pneumasim import).
 Chambers are columns 0..3 = shoulder.a, shoulder.b, elbow.a, elbow.b; joints / actuators
 columns 0..1 = shoulder, elbow.  ``P[row, col]`` holds parameters, ``S[row, col]`` states.
 """

@@ -74,12 +74,12 @@ MIN_FITS = 2               # full fits per round: the score test's best two alwa
 MAX_FITS = 6               # ... and up to this many when their predicted gains are close:
 FIT_WITHIN = 1 / 3         # within this fraction of the best's.  The score test is linear at a
                            # calibration that may have absorbed part of the effect, so its
-                           # ranking is rough: on case 1019 a piston leak (held-out gain 0.99
-                           # once fitted) ranked 4th at 0.48 of the best's predicted gain, and
-                           # 5th once valve leaks came in two forms
+                           # ranking is rough: on doctor_blind_benchmark seed 1019 a piston leak
+                           # (held-out gain 0.99 once fitted) ranks 4th at 0.48 of the best's
+                           # predicted gain with the one-area valve leak, 5th with both forms
 #: End-stop hypotheses (hypotheses.end_stop_hypotheses).  Their stiffness is bounded below by
-#: hypotheses.END_STOP_MIN_STIFFNESS_NM_PER_RAD: without the bound a weak "stop" spring had stood
-#: in for an angle-sensor offset (case 1026).  With it they name the bumpers of unconcealed
+#: hypotheses.END_STOP_MIN_STIFFNESS_NM_PER_RAD: without the bound a weak "stop" spring stands
+#: in for an angle-sensor offset (doctor_blind_benchmark seed 1026).  With it they name the bumpers of unconcealed
 #: end-stop recordings and nothing on the null and angle-offset cases (tests/test_doctor_new_effects.py).
 END_STOP_HYPOTHESES = True
 
@@ -154,7 +154,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
             s.heldout_null = chamber_rms(held, win_h, s.hyp.apply(s.mods, s.hyp.null_vector()))
         # ranked on one footing: the held-out residual of every chamber the candidates touch.
         # Each one's own chambers would favour a flexible effect at one chamber over one that
-        # explains the cylinder's two (variant case 7005: a two-area valve leak on chamber b
+        # explains the cylinder's two (doctor_variant_benchmark seed 7005: a two-area valve leak on chamber b
         # 0.88 of b's residual, a piston leak 0.85 of a's and b's)
         union = sorted({c for s in top for c in s.channels})
         for s in top:

@@ -100,8 +100,8 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
             Hypothesis("external_leak", where, "pneumatic", [("leak_area_m2", 0.0, 0.0, 4e-7, 1e-8)], [c],
                        apply=_set("external_leak_m2", c, C)),
             # no laminar form of the external leak here (the simulator has one): the orifice
-            # form names capillary external leaks (3 / 3 in the variant benchmark before the
-            # laminar form existed), while the laminar one, growing as p^2, took 26 % of the
+            # form names capillary external leaks (3 / 3 in the variant benchmark without the
+            # laminar form), while the laminar one, growing as p^2, took 26 % of the
             # residual of a supply area that shrinks with pressure (published sample
             # case_2e6a35dc, outside the vocabulary) and named it an external leak
             Hypothesis("valve_hysteresis", where, "pneumatic", [("half_width_v", 0.0, 0.0, 2.0, 0.1)], [c],
@@ -191,8 +191,8 @@ def _stop_regs(exp, j, stop, side):
 #: give at most 5.7 N m (shoulder: 6 bar over a 20 mm bore on a 30 mm arm) and 3.0 N m (elbow),
 #: which a 20 N m/rad bumper lets in by 0.29 and 0.15 rad, already a soft one (the stops of the
 #: simulator, a 5 ms MuJoCo soft limit, are fitted at 170-300 N m/rad).  A fit that wants less
-#: is a weak spring standing in for something else (an angle offset made case 1026 fit 1.4
-#: N m/rad), so the fit is bounded here and a stiffness stuck at the bound is rejected.
+#: is a weak spring standing in for something else (an angle offset makes doctor_blind_benchmark
+#: seed 1026 fit 1.4 N m/rad), so the fit is bounded here and a stiffness stuck at the bound is rejected.
 END_STOP_MIN_STIFFNESS_NM_PER_RAD = 20.0
 
 
