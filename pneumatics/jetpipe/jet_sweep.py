@@ -12,8 +12,9 @@ Here the "measured" response is that of the whole nonlinear valve of :mod:`.valv
 :mod:`.hysteresis`: the first-order current driver (1122 Hz), the tip force k_m i, the
 Prandtl-Ishlinskii hysteresis, the static tanh nonlinearity f3 and the jet dynamics of eq. 3.
 Every frequency of the stepped sine is integrated at once (one column per frequency) with
-classical RK4 at a fixed step far below every time constant; the hysteresis advances once per
-step from the driver current, as in :mod:`.plant`.  The fundamental of input and output over
+classical RK4 at a fixed step far below every time constant; the play operators' memory is
+held over each step and advanced at its end, while their output follows the current at every
+RK4 stage (so the static path has no half-step delay).  The fundamental of input and output over
 whole periods after settling gives the complex gain (:func:`.freqresp.fundamental`).
 """
 from __future__ import annotations
@@ -74,20 +75,22 @@ def jet_frequency_response(cfg: JetpipeCfg, freq_hz, amplitude_a: float, mean_a:
     x_out = np.empty((n + 1, f.size))
     x_out[0] = z[:, 1]
 
-    def rates(t, i, zz, x_static):
+    def rates(t, i, zz):
+        # the plays' memory is held over the step; their output follows the stage's current
+        force = km * i[:, None]
+        x_static = static_position(np.clip(plays, force - radii, force + radii).mean(axis=1), cfg.jet)
         cmd = np.clip(mean_a + amplitude_a * np.sin(w * t), -limit, limit)
         return wd * (cmd - i), zz @ a_jet.T + b_jet[None, :] * x_static[:, None]
 
     for k in range(n):
         t = k * STEP_S
-        np.clip(plays, km * cur[:, None] - radii, km * cur[:, None] + radii, out=plays)
-        x_st = static_position(plays.mean(axis=1), cfg.jet)  # hysteresis held over the step
-        k1 = rates(t, cur, z, x_st)
-        k2 = rates(t + STEP_S / 2, cur + STEP_S / 2 * k1[0], z + STEP_S / 2 * k1[1], x_st)
-        k3 = rates(t + STEP_S / 2, cur + STEP_S / 2 * k2[0], z + STEP_S / 2 * k2[1], x_st)
-        k4 = rates(t + STEP_S, cur + STEP_S * k3[0], z + STEP_S * k3[1], x_st)
+        k1 = rates(t, cur, z)
+        k2 = rates(t + STEP_S / 2, cur + STEP_S / 2 * k1[0], z + STEP_S / 2 * k1[1])
+        k3 = rates(t + STEP_S / 2, cur + STEP_S / 2 * k2[0], z + STEP_S / 2 * k2[1])
+        k4 = rates(t + STEP_S, cur + STEP_S * k3[0], z + STEP_S * k3[1])
         cur = cur + STEP_S / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
         z = z + STEP_S / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+        np.clip(plays, km * cur[:, None] - radii, km * cur[:, None] + radii, out=plays)
         x_out[k + 1] = z[:, 1]
     gains = np.empty(f.size, complex)
     for j in range(f.size):
