@@ -121,3 +121,18 @@ def test_arm2_mpc_pressure(out):
     assert m["pressure_diff_rmse_pa"] < 0.1 * m["reference_diff_rms_pa"]  # 'indistinguishable'
     assert m["pressure_diff_rmse_pa"] < 1e4
     assert m["realized_pressure_diff_rmse_pa"] < 0.15 * m["reference_diff_rms_pa"]
+
+
+def test_real_bench_friction_predicts_a_held_out_pressure(out):
+    """X-ring257: each pressure's run predicted from the other three (thesis data)."""
+    from scenarios.real_bench_friction_heldout import friction_files
+
+    try:
+        friction_files()
+    except PneumasimError:
+        pytest.skip("the thesis data (shared/real) is not beside the repository")
+    m = _fast("real_bench_friction_heldout", out)
+    assert m["heldout_files"] == 4
+    assert m["heldout_nrmse_median"] < 0.5 * m["nominal_nrmse_median"]  # friction explains most of F - pA
+    assert m["in_file_nrmse_median"] <= m["heldout_nrmse_median"]       # a prediction is no better than a fit
+    assert m["heldout_nrmse_median_interpolation"] < m["heldout_nrmse_median_extrapolation"]
