@@ -24,7 +24,10 @@ from __future__ import annotations
 
 import numpy as np
 
+import models
 from controllers.reference import standard_references
+from pneumatics.effects.effect_set import EffectSet
+from pneumatics.effects.tubes import load_tube_layout, tube_lengths, tube_line_dynamics
 from pneumatics.robot import load_robot
 from pneumatics.runner import run as run_loop
 from pneumatics.sim import Simulation
@@ -54,8 +57,26 @@ def lag_curve(q, ref, span, rate_hz: float, max_lag_ms: float = MAX_LAG_MS):
     return lags * 1000.0 / rate_hz, np.array(err)
 
 
-def track(robot, cfg, ref, lin, duration, seed, logger=None, model: bool = False):
-    sim = Simulation(robot)
+def refined_lag_ms(lags_ms, curve) -> float:
+    """Lag [ms] at the minimum of the error curve, refined by the vertex of the parabola through
+    the lowest sample and its neighbours (the curve is sampled at the 10 ms control period)."""
+    k = int(np.argmin(curve))
+    if k == 0 or k == len(curve) - 1:
+        return float(lags_ms[k])
+    y0, y1, y2 = curve[k - 1], curve[k], curve[k + 1]
+    den = y0 - 2 * y1 + y2
+    shift = 0.5 * (y0 - y2) / den if den > 0 else 0.0
+    return float(lags_ms[k] + shift * (lags_ms[1] - lags_ms[0]))
+
+
+def humanoid_tubes(robot) -> tuple[EffectSet, dict]:
+    """The assumed valve-to-cylinder tubes as effects, and their lengths {actuator: m}."""
+    layout = load_tube_layout(models.folder(robot.name) / "tubes.toml")
+    return EffectSet(line_dynamics=tube_line_dynamics(robot, layout)), tube_lengths(robot, layout)
+
+
+def track(robot, cfg, ref, lin, duration, seed, logger=None, model: bool = False, effects=None):
+    sim = Simulation(robot, effects=effects)
     sim.reset(qpos=ref.reference(0.0), pressure_pa=START_PRESSURE_PA)
     ctrl = linearized_model_pidf(cfg, ref, lin, robot) if model else linearized_pidf(cfg, ref, lin)
     return run_loop(sim, ctrl, duration, seed=seed, logger=logger)
@@ -71,6 +92,8 @@ def run(ctx):
     logger = ctx.rerun_logger(robot, "humanoid38 tracking")
     recs = {"pidf": track(robot, cfg, ref, lin, duration, seed=1, logger=logger),
             "model": track(robot, cfg, ref, lin, duration, seed=1, model=True)}
+    tubes, tube_len = humanoid_tubes(robot)
+    recs["pidf_tubes"] = track(robot, cfg, ref, lin, duration, seed=1, effects=tubes)
     if logger is not None:
         logger.close()
     again = track(robot, cfg, ref, lin, duration, seed=2) if not ctx.fast else None
@@ -83,7 +106,7 @@ def run(ctx):
         lags, curve = lag_curve(q, qr, span, rec.rate_hz)
         res[key] = {"q": q, "qr": qr, "lags": lags, "curve": curve, "best": int(np.argmin(curve)),
                     "per_joint": 100 * np.median(np.abs(q - qr) / span, axis=0)}
-    best_key = min(res, key=lambda k: res[k]["curve"][0])
+    best_key = min(("pidf", "model"), key=lambda k: res[k]["curve"][0])
 
     rec, r = recs["pidf"], res["pidf"]
     fig, axes = plt.subplots(4, 5, figsize=(16, 10), sharex=True)
@@ -104,7 +127,7 @@ def run(ctx):
     fig.tight_layout()
     ctx.savefig(fig, "tracking.png")
     fig, ax = plt.subplots(figsize=(6, 4))
-    for key, label in (("pidf", "PIDF"), ("model", "model-based PIDF")):
+    for key, label in (("pidf", "PIDF"), ("model", "model-based PIDF"), ("pidf_tubes", "PIDF, with tubes")):
         ax.plot(res[key]["lags"], res[key]["curve"], label=label)
     ax.axhline(3.4, color="k", ls=":", lw=0.8, label="paper, PIDF at zero lag")
     ax.set_xlabel("time lag [ms]")
@@ -130,6 +153,14 @@ def run(ctx):
         metrics[f"median_err_pct_range_at_lag_{key}"] = float(r["curve"][r["best"]])
         metrics[f"worst_joint_median_err_pct_range_{key}"] = float(r["per_joint"].max())
     metrics["worst_joint_pidf"] = names[int(np.argmax(res["pidf"]["per_joint"]))]
+    for key in ("pidf", "pidf_tubes"):
+        metrics[f"lag_ms_refined_{key}"] = refined_lag_ms(res[key]["lags"], res[key]["curve"])
+    metrics["predicted_lag_ms_tubes"] = metrics["lag_ms_refined_pidf_tubes"]
+    lengths = np.array(list(tube_len.values()))
+    line_volume = np.array([v["volume_m3"] for v in tubes.line_dynamics.values()])
+    metrics.update({"tube_length_m_min": float(lengths.min()), "tube_length_m_max": float(lengths.max()),
+                    "tube_volume_over_dead_volume_median": float(np.median(line_volume / robot.tables.dead_volume)),
+                    "tube_delay_ms_median": float(1000 * np.median([v["delay_s"] for v in tubes.line_dynamics.values()]))})
     if again is not None:
         q2 = again.matrix("q", names)
         metrics["repeat_diff_pct_range"] = float(100 * np.median(np.abs(q2 - res["pidf"]["q"]) / span))
