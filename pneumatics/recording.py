@@ -101,7 +101,7 @@ class Recording:
         suffix = Path(path).suffix.lower()
         if suffix not in WRITERS:
             raise RecordingError(f"{path}: cannot write a recording as {suffix or 'no suffix'!r}; "
-                                 f"valid: {', '.join(WRITERS)} (ROS bags: pneumatics.formats.rosbag.write_bag)")
+                                 f"valid: {', '.join(WRITERS)} (ROS bags: pneumatics.formats.rosbag_write.write_bag)")
         getattr(self, WRITERS[suffix])(path)
 
 
