@@ -35,13 +35,11 @@ def _cmd_doctor(args):
 
     from identification.doctor.valve_arm.diagnose import diagnose
     from identification.doctor.valve_arm.report import summary, write
-    from pneumatics.recording import read_csv
     from pneumatics.robot import load_robot
 
     console = Console(stderr=True)
     robot = load_robot(args.model)
-    recs = [read_csv(p) for p in args.recordings]
-    holds = [read_csv(p) for p in (args.holdout or [])]
+    recs, holds = _read_recordings(args)
     with console.status("doctor: starting") as status:
         report = diagnose(robot, recs, holds, progress=lambda msg: status.update(f"doctor: {msg}"))
     write(report, args.out, robot)
@@ -52,10 +50,7 @@ def _cmd_doctor(args):
 def _cmd_bench_doctor(args):
     from identification.doctor.bench.diagnose import diagnose_bench
     from identification.doctor.bench.report import summary, write
-    from pneumatics.recording import read_csv
-
-    recs = [read_csv(p) for p in args.recordings]
-    holds = [read_csv(p) for p in (args.holdout or [])]
+    recs, holds = _read_recordings(args)
     report = diagnose_bench(args.model, recs, holds)
     write(report, args.out)
     print(summary(report))
@@ -65,18 +60,28 @@ def _cmd_bench_doctor(args):
 def _cmd_jetpipe_doctor(args):
     from identification.doctor.jetpipe.diagnose import diagnose_jetpipe
     from identification.doctor.jetpipe.report import summary, write
-    from pneumatics.recording import read_csv
-
-    recs = [read_csv(p) for p in args.recordings]
-    holds = [read_csv(p) for p in (args.holdout or [])]
+    recs, holds = _read_recordings(args)
     report = diagnose_jetpipe(args.model, recs, holds, progress=lambda msg: print(f"doctor: {msg}", file=sys.stderr))
     write(report, args.out)
     print(summary(report))
     print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
 
 
+def _read_recordings(args):
+    """The doctor's recordings and held-out recordings, each by its suffix (CSV, Parquet, or a
+    ROS bag read through --map)."""
+    from pneumatics.formats.by_suffix import read_recording
+    from pneumatics.formats.rosbag import is_ros_bag
+
+    def read(path):
+        return read_recording(path, args.map if is_ros_bag(path) else None)
+
+    return [read(p) for p in args.recordings], [read(p) for p in (args.holdout or [])]
+
+
 def _cmd_import(args):
-    from pneumatics.importer import import_to_csv
+    from pneumatics.formats.rosbag import is_ros_bag, read_bag
+    from pneumatics.importer import import_file
 
     meta = {}
     for item in args.meta or []:
@@ -87,7 +92,9 @@ def _cmd_import(args):
             meta[key] = float(value)
         except ValueError:
             meta[key] = value
-    rec = import_to_csv(args.src, args.map, args.out, meta)
+    read = read_bag if is_ros_bag(args.src) else import_file
+    rec = read(args.src, args.map, meta)
+    rec.write(args.out)  # .csv (+ .json) or .parquet
     print(f"import: {args.src} -> {args.out} ({len(rec)} rows, {rec.time[-1] - rec.time[0]:.1f} s; "
           f"columns {', '.join(rec.columns)})")
 
@@ -150,15 +157,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_bench)
     p = sub.add_parser("doctor", help="find the physics a simulation left out (writes DIR/report.json, .md, .rrd)")
     p.add_argument("--model", required=True, help="model name (pneumasim models)")
-    p.add_argument("recordings", nargs="+", metavar="REC.csv", help="recordings to fit")
-    p.add_argument("--holdout", nargs="+", metavar="REC.csv", help="held-out recordings (default: last 30 %%)")
+    p.add_argument("recordings", nargs="+", metavar="REC",
+                   help="recordings to fit: .csv, .parquet, or ROS bags (.bag, .db3, .mcap, ROS 2 bag folder) with --map")
+    p.add_argument("--holdout", nargs="+", metavar="REC", help="held-out recordings (default: last 30 %%)")
+    p.add_argument("--map", metavar="MAP.toml",
+                   help="import map with a [ros] section for ROS bag recordings, or a shipped one's name (ros_arm2)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=_cmd_doctor)
-    p = sub.add_parser("import", help="convert a lab log into a recording CSV with a mapping file")
-    p.add_argument("src", metavar="SRC", help="the lab's raw log")
+    p = sub.add_parser("import", help="convert a lab log or a ROS bag into a recording with a mapping file")
+    p.add_argument("src", metavar="SRC", help="the lab's raw log, or a ROS bag (.bag, .db3, .mcap, ROS 2 bag folder)")
     p.add_argument("--map", required=True, metavar="MAP.toml",
-                   help="mapping file, or the name of a shipped one (zillen_chamber, zillen_friction)")
-    p.add_argument("--out", required=True, metavar="REC.csv", help="recording to write (and REC.json)")
+                   help="mapping file, or the name of a shipped one (zillen_chamber, zillen_friction, ros_arm2)")
+    p.add_argument("--out", required=True, metavar="REC.csv|REC.parquet",
+                   help="recording to write: .csv (and REC.json) or .parquet")
     p.add_argument("--meta", nargs="+", metavar="KEY=VALUE", help="extra sidecar metadata, e.g. bore_m=0.0257")
     p.set_defaults(func=_cmd_import)
     p = sub.add_parser("sweep", help="run a case function over many cases, or a scenario, on every core or on Ray",

@@ -20,6 +20,8 @@ A mapping file (TOML) says how to read the source and what each column is::
     target = "time"           # recording channel: time, q.<joint>, p_a.<actuator>, force.<actuator>, ...
     scale = 1.0               # optional factor applied before the unit conversion
 
+A map for ROS bags has a ``[ros]`` section instead of ``[[column]]`` entries (which topic and
+field gives which channel, the time base; :mod:`pneumatics.formats.rosbag_map`).
 Every value becomes SI (pressures absolute, in Pa).  A bad map raises :class:`ConfigError`
 naming the map file and field; an unparsable cell raises :class:`RecordingError` naming the
 source file, line and column.  Maps for the lab files pneumasim knows ship in
@@ -69,7 +71,7 @@ TARGET_QUANTITY = {
     "tau": ("torque",),
 }
 
-_TARGET = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z0-9_]+)?$")
+TARGET_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z0-9_]+)?$")
 
 
 @dataclass(frozen=True)
@@ -97,6 +99,8 @@ class ImportMap:
     atmosphere_pa: float | None
     columns: tuple
     meta: dict = field(default_factory=dict)
+    ros: dict | None = None
+    """the raw ``[ros]`` section, checked by :func:`pneumatics.formats.rosbag_map.ros_map`"""
 
     def to_si(self, col: ColumnMap, values: np.ndarray) -> np.ndarray:
         """Source values (N,) of ``col`` in SI units, pressures absolute."""
@@ -121,9 +125,12 @@ def load_map(path_or_name: str | Path) -> ImportMap:
             raise ConfigError(f"{path}: mapping file not found (shipped maps: {', '.join(shipped)})")
     doc = read_toml(path, "mapping file")
     where = str(path)
-    unknown = set(doc) - {"source", "meta", "column"}
+    unknown = set(doc) - {"source", "meta", "column", "ros"}
     if unknown:
-        raise ConfigError(f"{where}: unknown section(s) {sorted(unknown)}; valid: source, meta, column")
+        raise ConfigError(f"{where}: unknown section(s) {sorted(unknown)}; valid: source, meta, column, ros")
+    ros = doc.get("ros")
+    if ros is not None and not isinstance(ros, dict):
+        raise ConfigError(f"{where}: [ros] must be a table")
     src = doc.get("source", {})
     if not isinstance(src, dict):
         raise ConfigError(f"{where}: [source] must be a table")
@@ -148,8 +155,8 @@ def load_map(path_or_name: str | Path) -> ImportMap:
     if atm is not None and (isinstance(atm, bool) or not isinstance(atm, (int, float)) or not 5e4 <= atm <= 1.2e5):
         raise ConfigError(f"{where}: source.atmosphere_pa = {atm!r}: expected a room pressure in Pa "
                           "(absolute, 50000-120000)")
-    cols = doc.get("column")
-    if not isinstance(cols, list) or not cols:
+    cols = doc.get("column", [] if ros is not None else None)
+    if not isinstance(cols, list) or (not cols and ros is None):
         raise ConfigError(f"{where}: no [[column]] entries: the map must name at least the time column")
     columns, targets = [], {}
     for n, c in enumerate(cols, 1):
@@ -158,13 +165,13 @@ def load_map(path_or_name: str | Path) -> ImportMap:
         if t in targets:
             raise ConfigError(f"{where}: column #{n} and #{targets[t]} both map to {t!r}")
         targets[t] = n
-    if "time" not in targets:
+    if cols and "time" not in targets:
         raise ConfigError(f"{where}: no column maps to 'time'")
     meta = doc.get("meta", {})
     if not isinstance(meta, dict):
         raise ConfigError(f"{where}: [meta] must be a table")
     return ImportMap(where, None if delim == "whitespace" else delim, header_rows, decimal,
-                     thousands, None if atm is None else float(atm), tuple(columns), dict(meta))
+                     thousands, None if atm is None else float(atm), tuple(columns), dict(meta), ros)
 
 
 def _column(c, where: str, atm) -> ColumnMap:
@@ -181,7 +188,7 @@ def _column(c, where: str, atm) -> ColumnMap:
         raise ConfigError(f"{where}: source = {src!r}: expected a 1-based column number")
     if unit not in UNITS:
         raise ConfigError(f"{where}: unknown unit {unit!r}; valid: {', '.join(UNITS)}")
-    if not isinstance(target, str) or not _TARGET.match(target):
+    if not isinstance(target, str) or not TARGET_PATTERN.match(target):
         raise ConfigError(f"{where}: target = {target!r}: expected a channel such as 'time', 'q.rod', "
                           "'p_a.chamber', 'force.rod'")
     quantity, _, gauge = UNITS[unit]
@@ -231,6 +238,9 @@ def import_file(src: str | Path, mapping: ImportMap | str | Path, meta: dict | N
     """Read lab log ``src`` with ``mapping`` into a :class:`Recording` (SI, absolute pressures)."""
     imap = mapping if isinstance(mapping, ImportMap) else load_map(mapping)
     src = Path(src)
+    if not imap.columns:
+        raise ConfigError(f"{imap.path}: no [[column]] entries: this map reads ROS bags ([ros]); "
+                          f"{src} is not one (.bag, .db3, .mcap or a ROS 2 bag folder)")
     try:
         lines = src.read_text().splitlines()
     except FileNotFoundError:

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import RecordingError
+from .formats import parquet
 from .io import atomic_write_text
 
 KNOWN_PREFIXES = ("q", "qd", "p_a", "p_b", "u_a", "u_b", "i", "force", "tau", "ref")
@@ -91,6 +92,21 @@ class Recording:
         if self.meta:
             atomic_write_text(path.with_suffix(".json"), json.dumps(self.meta, indent=1) + "\n")
 
+    def to_parquet(self, path: str | Path):
+        """Write ``path`` as Parquet atomically; the metadata goes into the schema metadata."""
+        parquet.write_table(path, self.time, self.columns, self.meta)
+
+    def write(self, path: str | Path):
+        """Write by suffix: ``.csv`` (+ sidecar ``.json``) or ``.parquet``."""
+        suffix = Path(path).suffix.lower()
+        if suffix not in WRITERS:
+            raise RecordingError(f"{path}: cannot write a recording as {suffix or 'no suffix'!r}; "
+                                 f"valid: {', '.join(WRITERS)} (ROS bags: pneumatics.formats.rosbag_write.write_bag)")
+        getattr(self, WRITERS[suffix])(path)
+
+
+WRITERS = {".csv": "to_csv", ".parquet": "to_parquet"}
+
 
 def read_csv(path: str | Path) -> Recording:
     """Read a recording; raises :class:`RecordingError` naming file, row and column."""
@@ -144,6 +160,12 @@ def read_csv(path: str | Path) -> Recording:
         except json.JSONDecodeError as e:
             raise RecordingError(f"{side}: sidecar is not valid JSON: {e}") from None
     return Recording(t.copy(), columns, meta, str(path))
+
+
+def read_parquet(path: str | Path) -> Recording:
+    """Read a Parquet recording with the checks of :func:`read_csv` (formats/parquet.py)."""
+    t, columns, meta = parquet.read_table(path)
+    return Recording(t, columns, meta, str(path))
 
 
 def validate(rec: Recording, joint_names, actuator_names, *, need_commands: bool = True,

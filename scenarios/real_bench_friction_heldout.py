@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from identification.bench_model import load_bench
-from identification.friction_heldout import TERMS, predict_held_out
+from pneumatics.bench.model import load_bench
+from identification.doctor.bench.friction_heldout import TERMS, predict_held_out
 from pneumatics.errors import PneumasimError
 from pneumatics.importer import import_file
 

@@ -1,6 +1,6 @@
 """How far a bench cylinder's friction fit predicts: a seal at a pressure it was not fitted at.
 
-The bench doctor (:mod:`identification.bench_doctor`) fits the rod force left after the
+The bench doctor (:mod:`identification.doctor.bench.diagnose`) fits the rod force left after the
 pressure force p_g A with Coulomb friction growing linearly with the gauge pressure
 (:mod:`pneumatics.effects.seal_friction`) plus a constant part (load-cell offset or a
 direction asymmetry, which one constant-speed run cannot tell apart)::
@@ -24,8 +24,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import lsq
-from .bench_doctor import CylData, nrmse
+from identification.base import lsq
+
+from .common import nrmse
+from .cylinder_fit import CylData
 
 TERMS = {"growth+offset": ["coulomb_n", "coulomb_n_per_bar", "offset_n"],
          "growth+offset_per_bar": ["coulomb_n", "coulomb_n_per_bar", "offset_n", "offset_n_per_bar"]}
