@@ -45,8 +45,10 @@ MIN_DT_K = -10.0       # a gas colder than the wall when shut: not from charging
 
 
 def diagnose_bench(model: str, recordings: list[Recording], holdouts: list[Recording] = (),
-                   holdout_fraction: float = HOLDOUT) -> dict:
-    """Diagnose bench recordings of ``model``; returns the report dict (see bench_report.write)."""
+                   holdout_fraction: float = HOLDOUT, progress=None) -> dict:
+    """Diagnose bench recordings of ``model``; returns the report dict (see bench_report.write).
+    ``progress(msg)``, if given, is told each stage."""
+    say = progress or (lambda msg: None)
     if not recordings:
         raise RecordingError("bench doctor: no recordings given")
     cfg = load_bench(model)
@@ -57,7 +59,9 @@ def diagnose_bench(model: str, recordings: list[Recording], holdouts: list[Recor
     if isinstance(cfg, BenchChamberCfg):
         from .bench_chamber_fit import diagnose_chamber
 
+        say("fitting the chamber model (orifice areas, heat transfer, leaks) and checking it on held-out data")
         return diagnose_chamber(model, cfg, recordings, list(holdouts), holdout_fraction)
+    say("fitting the cylinder's friction models and checking them on held-out data")
     return diagnose_cylinder(model, cfg, recordings, list(holdouts), holdout_fraction)
 
 

@@ -24,7 +24,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from pneumatics.io import atomic_write_json
+from pneumatics.io import OutputFolder, atomic_write_json
+from pneumatics.progress import Progress
 from pneumatics.robot import load_robot
 from pneumatics.sim import Simulation
 
@@ -182,19 +183,23 @@ def bench_sweep(quick: bool) -> dict:
 
 
 def run_bench(quick: bool = False, out: str | Path = "runs/bench") -> dict:
+    """Run the benchmarks; ``out`` is checked first and replaced whole at the end."""
     steps = 20_000 if quick else 100_000
     results = {}
-    for name in ("arm2", "humanoid38"):
-        if name not in models.available(models.VALVE_ARM):
-            continue
-        n = steps if name == "arm2" else steps // 4
-        results[name] = bench_model(name, n, repeats=3)
-    results["doctor"] = bench_doctor(quick)
-    results["sweep"] = bench_sweep(quick)
-    _print_table(results)
-    path = Path(out) / "bench.json"
-    atomic_write_json(path, results)
-    print(f"wrote {path}")
+    with OutputFolder(out) as folder, Progress("bench", live=False) as progress:
+        for name in ("arm2", "humanoid38"):
+            if name not in models.available(models.VALVE_ARM):
+                continue
+            n = steps if name == "arm2" else steps // 4
+            progress.say(f"simulation step, {name} ({n} steps)")
+            results[name] = bench_model(name, n, repeats=3)
+        progress.say("doctor")
+        results["doctor"] = bench_doctor(quick)
+        progress.say("sweep overheads")
+        results["sweep"] = bench_sweep(quick)
+        _print_table(results)
+        atomic_write_json(folder.path / "bench.json", results)
+    print(f"wrote {Path(out) / 'bench.json'}")
     return results
 
 

@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 import warnings
 
 from pneumatics.errors import PneumasimError
@@ -25,58 +27,71 @@ def _cmd_bench(args):
 
 
 def _cmd_doctor(args):
+    """Every model kind: the output folder checked first, stages shown, the report swapped in whole."""
     import models
+    from pneumatics.io import OutputFolder
+    from pneumatics.progress import Progress
 
+    folder = OutputFolder(args.out, inputs=[*args.recordings, *(args.holdout or [])])
     if args.model in models.available("bench"):  # bench rigs: identification/bench_doctor.py
-        return _cmd_bench_doctor(args)
-    if args.model in models.available("jetpipe"):  # identification/jetpipe_doctor.py
-        return _cmd_jetpipe_doctor(args)
-    from rich.console import Console
+        doctor = _bench_doctor
+    elif args.model in models.available("jetpipe"):  # identification/jetpipe_doctor.py
+        doctor = _jetpipe_doctor
+    else:
+        from pneumatics.robot import load_robot
 
+        load_robot(args.model)  # an unknown model fails here, before any work
+        doctor = _robot_doctor
+    with folder, Progress(f"doctor {args.model}") as progress:
+        summary, files = doctor(args, folder.path, progress)
+    print(summary)
+    print("report: " + ", ".join(f"{args.out}/{name}" for name in files))
+
+
+def _read(args, progress):
+    from pneumatics.recording import read_csv
+
+    progress.say(f"reading {len(args.recordings) + len(args.holdout or [])} recording(s)")
+    return [read_csv(p) for p in args.recordings], [read_csv(p) for p in (args.holdout or [])]
+
+
+def _robot_doctor(args, out, progress):
     from identification.doctor import diagnose
     from identification.report import summary, write
-    from pneumatics.recording import read_csv
     from pneumatics.robot import load_robot
 
-    console = Console(stderr=True)
     robot = load_robot(args.model)
-    recs = [read_csv(p) for p in args.recordings]
-    holds = [read_csv(p) for p in (args.holdout or [])]
-    with console.status("doctor: starting") as status:
-        report = diagnose(robot, recs, holds, progress=lambda msg: status.update(f"doctor: {msg}"))
-    write(report, args.out, robot)
-    print(summary(report))
-    print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
+    recs, holds = _read(args, progress)
+    report = diagnose(robot, recs, holds, progress=progress)
+    progress.say("writing the report")
+    write(report, out, robot)
+    return summary(report), ("report.md", "report.json", "doctor.rrd")
 
 
-def _cmd_bench_doctor(args):
+def _bench_doctor(args, out, progress):
     from identification.bench_doctor import diagnose_bench
     from identification.bench_report import summary, write
-    from pneumatics.recording import read_csv
 
-    recs = [read_csv(p) for p in args.recordings]
-    holds = [read_csv(p) for p in (args.holdout or [])]
-    report = diagnose_bench(args.model, recs, holds)
-    write(report, args.out)
-    print(summary(report))
-    print(f"report: {args.out}/report.md, {args.out}/report.json")
+    recs, holds = _read(args, progress)
+    report = diagnose_bench(args.model, recs, holds, progress=progress)
+    progress.say("writing the report")
+    write(report, out)
+    return summary(report), ("report.md", "report.json")
 
 
-def _cmd_jetpipe_doctor(args):
+def _jetpipe_doctor(args, out, progress):
     from identification.jetpipe_doctor import diagnose_jetpipe
     from identification.jetpipe_report import summary, write
-    from pneumatics.recording import read_csv
 
-    recs = [read_csv(p) for p in args.recordings]
-    holds = [read_csv(p) for p in (args.holdout or [])]
-    report = diagnose_jetpipe(args.model, recs, holds, progress=lambda msg: print(f"doctor: {msg}", file=sys.stderr))
-    write(report, args.out)
-    print(summary(report))
-    print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
+    recs, holds = _read(args, progress)
+    report = diagnose_jetpipe(args.model, recs, holds, progress=progress)
+    progress.say("writing the report")
+    write(report, out)
+    return summary(report), ("report.md", "report.json", "doctor.rrd")
 
 
 def _cmd_import(args):
-    from pneumatics.importer import import_to_csv
+    from pneumatics.importer import import_to_csv, sidecar_path
 
     meta = {}
     for item in args.meta or []:
@@ -88,8 +103,8 @@ def _cmd_import(args):
         except ValueError:
             meta[key] = value
     rec = import_to_csv(args.src, args.map, args.out, meta)
-    print(f"import: {args.src} -> {args.out} ({len(rec)} rows, {rec.time[-1] - rec.time[0]:.1f} s; "
-          f"columns {', '.join(rec.columns)})")
+    print(f"import: {args.src} -> {args.out} and {sidecar_path(args.out)} ({len(rec)} rows, "
+          f"{rec.time[-1] - rec.time[0]:.1f} s; columns {', '.join(rec.columns)})")
 
 
 def _cmd_sweep(args):
@@ -97,7 +112,7 @@ def _cmd_sweep(args):
     import os
     import time
 
-    from pneumatics.io import atomic_write_json
+    from pneumatics.io import OutputFolder, atomic_write_json
     from pneumatics.sweep import load_function, read_cases, sweep
 
     if ":" not in args.target:  # a scenario: its sweeps take the options from the environment
@@ -111,15 +126,17 @@ def _cmd_sweep(args):
         return
     if not args.cases or not args.out:
         raise PneumasimError("sweep MODULE:FUNCTION needs --cases CASES.json and --out DIR")
-    fn, cases = load_function(args.target), read_cases(args.cases)
-    t0 = time.perf_counter()
-    results = sweep(fn, cases, out=args.out, backend=args.backend or ("ray" if args.ray else "process"),
-                    workers=args.workers, ray_address=None if args.ray in (None, "local") else args.ray,
-                    retries=args.retries, progress=not args.no_progress)
-    rows = [{"index": r.index, "case": r.case, "result": r.result, "error": r.error, "seconds": r.seconds,
-             "attempts": r.attempts, "resumed": r.resumed} for r in results]
+    # resumable: an interrupted sweep keeps its finished cases beside --out for the next run
+    with OutputFolder(args.out, inputs=[args.cases], resumable=True) as folder:
+        fn, cases = load_function(args.target), read_cases(args.cases)
+        t0 = time.perf_counter()
+        results = sweep(fn, cases, out=folder.path, backend=args.backend or ("ray" if args.ray else "process"),
+                        workers=args.workers, ray_address=None if args.ray in (None, "local") else args.ray,
+                        retries=args.retries, progress=not args.no_progress)
+        rows = [{"index": r.index, "case": r.case, "result": r.result, "error": r.error, "seconds": r.seconds,
+                 "attempts": r.attempts, "resumed": r.resumed} for r in results]
+        atomic_write_json(folder.path / "results.json", rows)
     path = os.path.join(args.out, "results.json")
-    atomic_write_json(path, rows)
     failed = [r.index for r in results if not r.ok]
     print(json.dumps({"cases": len(results), "failed": len(failed), "resumed": sum(r.resumed for r in results),
                       "wall_seconds": round(time.perf_counter() - t0, 2), "results": path}))
@@ -152,13 +169,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", required=True, help="model name (pneumasim models)")
     p.add_argument("recordings", nargs="+", metavar="REC.csv", help="recordings to fit")
     p.add_argument("--holdout", nargs="+", metavar="REC.csv", help="held-out recordings (default: last 30 %%)")
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--out", required=True, help="output folder, replaced whole when the run has finished")
     p.set_defaults(func=_cmd_doctor)
     p = sub.add_parser("import", help="convert a lab log into a recording CSV with a mapping file")
     p.add_argument("src", metavar="SRC", help="the lab's raw log")
     p.add_argument("--map", required=True, metavar="MAP.toml",
                    help="mapping file, or the name of a shipped one (zillen_chamber, zillen_friction)")
-    p.add_argument("--out", required=True, metavar="REC.csv", help="recording to write (and REC.json)")
+    p.add_argument("--out", required=True, metavar="REC.csv",
+                   help="recording to write, and its sidecar REC.json (not the source, not a .json name)")
     p.add_argument("--meta", nargs="+", metavar="KEY=VALUE", help="extra sidecar metadata, e.g. bore_m=0.0257")
     p.set_defaults(func=_cmd_import)
     p = sub.add_parser("sweep", help="run a case function over many cases, or a scenario, on every core or on Ray",
@@ -182,16 +200,25 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminated(signum, frame):
+    raise KeyboardInterrupt  # SIGTERM (a job scheduler's stop) cleans up as Ctrl-C does
+
+
 def main(argv=None):
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.simplefilter("default")
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminated) if in_main else None
     try:
         args.func(args)
     except PneumasimError as e:
         sys.exit(f"pneumasim: error: {e}")
     except KeyboardInterrupt:
-        sys.exit("pneumasim: interrupted")
+        sys.exit("pneumasim: interrupted; the previous results are unchanged")
+    finally:
+        if in_main:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

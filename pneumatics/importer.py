@@ -35,7 +35,8 @@ from pathlib import Path
 import numpy as np
 
 from .config import read_toml
-from .errors import ConfigError, RecordingError
+from .errors import ConfigError, OutputError, RecordingError, UnknownNameError
+from .io import OutputFiles
 from .recording import Recording
 
 MAPS_DIR = Path(__file__).resolve().parent / "import_maps"
@@ -117,8 +118,10 @@ def load_map(path_or_name: str | Path) -> ImportMap:
         shipped = shipped_maps()
         if str(path_or_name) in shipped:
             path = shipped[str(path_or_name)]
-        else:
+        elif path.suffix or len(path.parts) > 1:  # a file name: the file is missing
             raise ConfigError(f"{path}: mapping file not found (shipped maps: {', '.join(shipped)})")
+        else:  # a bare name: one of the shipped maps, perhaps misspelt
+            raise UnknownNameError("import map (a mapping file or the name of a shipped one)", str(path), shipped)
     doc = read_toml(path, "mapping file")
     where = str(path)
     unknown = set(doc) - {"source", "meta", "column"}
@@ -274,8 +277,22 @@ def import_file(src: str | Path, mapping: ImportMap | str | Path, meta: dict | N
     return Recording(t, values, full_meta, str(src))
 
 
+def sidecar_path(out: str | Path) -> Path:
+    """The sidecar of recording ``out``: REC.csv -> REC.json (DESIGN.md "Recordings")."""
+    return Path(out).with_suffix(".json")
+
+
 def import_to_csv(src, mapping, out, meta: dict | None = None) -> Recording:
-    """Import ``src`` and write ``out`` (and its sidecar ``.json``) atomically."""
-    rec = import_file(src, mapping, meta)
-    rec.to_csv(out)
+    """Import ``src`` and write ``out`` and its sidecar ``REC.json``, both or neither.
+
+    Checked before reading: ``out`` is not ``src``, the sidecar is not ``src``, ``out`` is not
+    a ``.json`` name (the sidecar would fall on it) and both can be written."""
+    out = Path(out)
+    if out.suffix.lower() == ".json":
+        raise OutputError(f"--out {out}: a recording is a CSV file and its metadata goes to a sidecar "
+                          f"of the same name with .json; give e.g. --out {out.with_suffix('.csv')}")
+    side = sidecar_path(out)
+    with OutputFiles(out, side, inputs=[src]) as files:
+        rec = import_file(src, mapping, meta)
+        rec.to_csv(files.file(out), sidecar=files.file(side))
     return rec
