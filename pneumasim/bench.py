@@ -27,7 +27,8 @@ import mujoco
 import numpy as np
 
 from pneumasim.bench_paths import bench_doctor_replay, bench_paths
-from pneumatics.io import atomic_write_json
+from pneumatics.io import OutputFolder, atomic_write_json
+from pneumatics.progress import Progress
 from pneumatics.robot import load_robot
 from pneumatics.sim import Simulation
 
@@ -185,21 +186,27 @@ def bench_sweep(quick: bool) -> dict:
 
 
 def run_bench(quick: bool = False, out: str | Path = "runs/bench") -> dict:
+    """Run the benchmarks; ``out`` is checked first and replaced whole at the end."""
     steps = 20_000 if quick else 100_000
     results = {}
-    for name in ("arm2", "humanoid38"):
-        if name not in models.available(models.VALVE_ARM):
-            continue
-        n = steps if name == "arm2" else steps // 4
-        results[name] = bench_model(name, n, repeats=3)
-        results[name].update(bench_paths(name, n * 1e-3 / 2, repeats=3))
-    results["doctor_replay"] = bench_doctor_replay(10.0 if quick else 30.0)
-    results["doctor"] = bench_doctor(quick)
-    results["sweep"] = bench_sweep(quick)
-    _print_table(results)
-    path = Path(out) / "bench.json"
-    atomic_write_json(path, results)
-    print(f"wrote {path}")
+    with OutputFolder(out) as folder, Progress("bench", live=False) as progress:
+        for name in ("arm2", "humanoid38"):
+            if name not in models.available(models.VALVE_ARM):
+                continue
+            n = steps if name == "arm2" else steps // 4
+            progress.say(f"simulation step, {name} ({n} steps)")
+            results[name] = bench_model(name, n, repeats=3)
+            progress.say(f"paths against MuJoCo's C loop, {name}")
+            results[name].update(bench_paths(name, n * 1e-3 / 2, repeats=3))
+        progress.say("doctor replays")
+        results["doctor_replay"] = bench_doctor_replay(10.0 if quick else 30.0)
+        progress.say("doctor")
+        results["doctor"] = bench_doctor(quick)
+        progress.say("sweep overheads")
+        results["sweep"] = bench_sweep(quick)
+        _print_table(results)
+        atomic_write_json(folder.path / "bench.json", results)
+    print(f"wrote {Path(out) / 'bench.json'}")
     return results
 
 

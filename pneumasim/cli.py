@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 import warnings
 
 from pneumatics.errors import PneumasimError
@@ -25,49 +27,25 @@ def _cmd_bench(args):
 
 
 def _cmd_doctor(args):
-    import models
+    """Every model kind through one entry (identification.doctor): the output folder checked
+    first, stages shown, the report swapped in whole."""
+    from identification.doctor import diagnose, kind_of, summary, write
+    from pneumatics.io import OutputFolder
+    from pneumatics.progress import Progress
 
-    if args.model in models.available("bench"):  # bench rigs: identification/bench_doctor.py
-        return _cmd_bench_doctor(args)
-    if args.model in models.available("jetpipe"):  # identification/jetpipe_doctor.py
-        return _cmd_jetpipe_doctor(args)
-    from rich.console import Console
-
-    from identification.doctor.valve_arm.diagnose import diagnose
-    from identification.doctor.valve_arm.report import summary, write
-    from pneumatics.robot import load_robot
-
-    console = Console(stderr=True)
-    robot = load_robot(args.model)
-    recs, holds = _read_recordings(args)
-    with console.status("doctor: starting") as status:
-        report = diagnose(robot, recs, holds, progress=lambda msg: status.update(f"doctor: {msg}"))
-    write(report, args.out, robot)
+    kind_of(args.model)  # an unknown model, or one without a doctor, fails here before any work
+    folder = OutputFolder(args.out, inputs=[*args.recordings, *(args.holdout or [])])
+    with folder, Progress(f"doctor {args.model}") as progress:
+        recs, holds = _read_recordings(args, progress)
+        report = diagnose(args.model, recs, holds, progress=progress)
+        progress.say("writing the report")
+        write(report, folder.path)
+        files = sorted(p.name for p in folder.path.iterdir() if p.suffix in (".md", ".json", ".rrd", ".toml", ".xml"))
     print(summary(report))
-    print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
+    print("report: " + ", ".join(f"{args.out}/{name}" for name in files))
 
 
-def _cmd_bench_doctor(args):
-    from identification.doctor.bench.diagnose import diagnose_bench
-    from identification.doctor.bench.report import summary, write
-    recs, holds = _read_recordings(args)
-    report = diagnose_bench(args.model, recs, holds)
-    write(report, args.out)
-    print(summary(report))
-    print(f"report: {args.out}/report.md, {args.out}/report.json")
-
-
-def _cmd_jetpipe_doctor(args):
-    from identification.doctor.jetpipe.diagnose import diagnose_jetpipe
-    from identification.doctor.jetpipe.report import summary, write
-    recs, holds = _read_recordings(args)
-    report = diagnose_jetpipe(args.model, recs, holds, progress=lambda msg: print(f"doctor: {msg}", file=sys.stderr))
-    write(report, args.out)
-    print(summary(report))
-    print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
-
-
-def _read_recordings(args):
+def _read_recordings(args, progress):
     """The doctor's recordings and held-out recordings, each by its suffix (CSV, Parquet, or a
     ROS bag read through --map)."""
     from pneumatics.formats.by_suffix import read_recording
@@ -76,12 +54,12 @@ def _read_recordings(args):
     def read(path):
         return read_recording(path, args.map if is_ros_bag(path) else None)
 
+    progress.say(f"reading {len(args.recordings) + len(args.holdout or [])} recording(s)")
     return [read(p) for p in args.recordings], [read(p) for p in (args.holdout or [])]
 
 
 def _cmd_import(args):
-    from pneumatics.formats.rosbag import is_ros_bag, read_bag
-    from pneumatics.importer import import_file
+    from pneumatics.importer import import_recording, sidecar_path
 
     meta = {}
     for item in args.meta or []:
@@ -92,11 +70,10 @@ def _cmd_import(args):
             meta[key] = float(value)
         except ValueError:
             meta[key] = value
-    read = read_bag if is_ros_bag(args.src) else import_file
-    rec = read(args.src, args.map, meta)
-    rec.write(args.out)  # .csv (+ .json) or .parquet
-    print(f"import: {args.src} -> {args.out} ({len(rec)} rows, {rec.time[-1] - rec.time[0]:.1f} s; "
-          f"columns {', '.join(rec.columns)})")
+    rec = import_recording(args.src, args.map, args.out, meta)
+    side = f" and {sidecar_path(args.out)}" if str(args.out).lower().endswith(".csv") else ""
+    print(f"import: {args.src} -> {args.out}{side} ({len(rec)} rows, "
+          f"{rec.time[-1] - rec.time[0]:.1f} s; columns {', '.join(rec.columns)})")
 
 
 def _cmd_sweep(args):
@@ -104,7 +81,7 @@ def _cmd_sweep(args):
     import os
     import time
 
-    from pneumatics.io import atomic_write_json
+    from pneumatics.io import OutputFolder, atomic_write_json
     from workflow.sweep import load_function, read_cases, sweep
 
     if ":" not in args.target:  # a scenario: its sweeps take the options from the environment
@@ -118,15 +95,17 @@ def _cmd_sweep(args):
         return
     if not args.cases or not args.out:
         raise PneumasimError("sweep MODULE:FUNCTION needs --cases CASES.json and --out DIR")
-    fn, cases = load_function(args.target), read_cases(args.cases)
-    t0 = time.perf_counter()
-    results = sweep(fn, cases, out=args.out, backend=args.backend or ("ray" if args.ray else "process"),
-                    workers=args.workers, ray_address=None if args.ray in (None, "local") else args.ray,
-                    retries=args.retries, progress=not args.no_progress)
-    rows = [{"index": r.index, "case": r.case, "result": r.result, "error": r.error, "seconds": r.seconds,
-             "attempts": r.attempts, "resumed": r.resumed} for r in results]
+    # resumable: an interrupted sweep keeps its finished cases beside --out for the next run
+    with OutputFolder(args.out, inputs=[args.cases], resumable=True) as folder:
+        fn, cases = load_function(args.target), read_cases(args.cases)
+        t0 = time.perf_counter()
+        results = sweep(fn, cases, out=folder.path, backend=args.backend or ("ray" if args.ray else "process"),
+                        workers=args.workers, ray_address=None if args.ray in (None, "local") else args.ray,
+                        retries=args.retries, progress=not args.no_progress)
+        rows = [{"index": r.index, "case": r.case, "result": r.result, "error": r.error, "seconds": r.seconds,
+                 "attempts": r.attempts, "resumed": r.resumed} for r in results]
+        atomic_write_json(folder.path / "results.json", rows)
     path = os.path.join(args.out, "results.json")
-    atomic_write_json(path, rows)
     failed = [r.index for r in results if not r.ok]
     print(json.dumps({"cases": len(results), "failed": len(failed), "resumed": sum(r.resumed for r in results),
                       "wall_seconds": round(time.perf_counter() - t0, 2), "results": path}))
@@ -162,14 +141,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--holdout", nargs="+", metavar="REC", help="held-out recordings (default: last 30 %%)")
     p.add_argument("--map", metavar="MAP.toml",
                    help="import map with a [ros] section for ROS bag recordings, or a shipped one's name (ros_arm2)")
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--out", required=True, help="output folder, replaced whole when the run has finished")
     p.set_defaults(func=_cmd_doctor)
     p = sub.add_parser("import", help="convert a lab log or a ROS bag into a recording with a mapping file")
     p.add_argument("src", metavar="SRC", help="the lab's raw log, or a ROS bag (.bag, .db3, .mcap, ROS 2 bag folder)")
     p.add_argument("--map", required=True, metavar="MAP.toml",
                    help="mapping file, or the name of a shipped one (zillen_chamber, zillen_friction, ros_arm2)")
     p.add_argument("--out", required=True, metavar="REC.csv|REC.parquet",
-                   help="recording to write: .csv (and REC.json) or .parquet")
+                   help="recording to write: .csv (and its sidecar REC.json) or .parquet; not the source")
     p.add_argument("--meta", nargs="+", metavar="KEY=VALUE", help="extra sidecar metadata, e.g. bore_m=0.0257")
     p.set_defaults(func=_cmd_import)
     p = sub.add_parser("sweep", help="run a case function over many cases, or a scenario, on every core or on Ray",
@@ -193,16 +172,25 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminated(signum, frame):
+    raise KeyboardInterrupt  # SIGTERM (a job scheduler's stop) cleans up as Ctrl-C does
+
+
 def main(argv=None):
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.simplefilter("default")
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminated) if in_main else None
     try:
         args.func(args)
     except PneumasimError as e:
         sys.exit(f"pneumasim: error: {e}")
     except KeyboardInterrupt:
-        sys.exit("pneumasim: interrupted")
+        sys.exit("pneumasim: interrupted; the previous results are unchanged")
+    finally:
+        if in_main:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

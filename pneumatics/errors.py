@@ -1,4 +1,5 @@
 """Exceptions of pneumasim: each names the file, field or column at fault."""
+import difflib
 
 
 class PneumasimError(Exception):
@@ -13,12 +14,25 @@ class RecordingError(PneumasimError):
     """A recording (CSV) cannot be read or does not fit the model."""
 
 
+class OutputError(PneumasimError):
+    """An output path that cannot or must not be written (checked before any work starts)."""
+
+
+def close_matches(name: str, valid, n: int = 3) -> list[str]:
+    """The valid names nearest ``name`` (difflib's ratio >= 0.6, case ignored), best first."""
+    lowered = {str(v).lower(): str(v) for v in valid}
+    return [lowered[m] for m in difflib.get_close_matches(str(name).lower(), list(lowered), n=n, cutoff=0.6)]
+
+
 class UnknownNameError(PneumasimError, KeyError):
-    """A name (model, scenario, joint, actuator) that does not exist; lists the valid ones."""
+    """A name (model, scenario, joint, actuator, map, effect) that does not exist; suggests the
+    nearest valid ones ("did you mean") and lists them all."""
 
     def __init__(self, kind: str, name: str, valid):
-        self.kind, self.name, self.valid = kind, name, sorted(valid)
-        super().__init__(f"unknown {kind} {name!r}; valid: {', '.join(self.valid)}")
+        self.kind, self.name, self.valid = kind, name, sorted(str(v) for v in valid)
+        self.suggestions = close_matches(name, self.valid)
+        hint = f" did you mean {' or '.join(repr(s) for s in self.suggestions)}?" if self.suggestions else ""
+        super().__init__(f"unknown {kind} {name!r};{hint} valid: {', '.join(self.valid)}")
 
     def __str__(self) -> str:  # KeyError would add quotes around the message
         return self.args[0]

@@ -80,8 +80,9 @@ class Recording:
                          dict(self.meta), f"{self.source}[{t0:g}:{t1:g}]")
 
     # -- files -----------------------------------------------------------------------------
-    def to_csv(self, path: str | Path, digits: int = 7):
-        """Write ``path`` (and ``<path>.json`` if meta is non-empty) atomically."""
+    def to_csv(self, path: str | Path, digits: int = 7, sidecar: str | Path | None = None):
+        """Write ``path`` (and the sidecar, ``<path>.json`` unless given, if meta is non-empty)
+        atomically."""
         path = Path(path)
         buf = io.StringIO()
         names = ["time", *self.columns]
@@ -90,7 +91,7 @@ class Recording:
         np.savetxt(buf, data, delimiter=",", fmt=f"%.{digits}g")
         atomic_write_text(path, buf.getvalue())
         if self.meta:
-            atomic_write_text(path.with_suffix(".json"), json.dumps(self.meta, indent=1) + "\n")
+            atomic_write_text(sidecar or path.with_suffix(".json"), json.dumps(self.meta, indent=1) + "\n")
 
     def to_parquet(self, path: str | Path):
         """Write ``path`` as Parquet atomically; the metadata goes into the schema metadata."""

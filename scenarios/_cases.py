@@ -17,6 +17,7 @@ import numpy as np
 from controllers.pid import ARM2_PIDF
 from controllers.reference import hand_moved
 from pneumatics.effects.effect_set import EffectSet
+from pneumatics.errors import UnknownNameError
 from pneumatics.io import atomic_write_json
 from pneumatics.robot import load_robot
 from pneumatics.runner import run
@@ -66,6 +67,8 @@ BENCHMARK_FAMILIES = [f for f in FAMILIES if f != "end_stop"]
 
 
 def draw_effect(family: str, rng: np.random.Generator) -> tuple[dict, EffectSet]:
+    if family not in FAMILIES:
+        raise UnknownNameError("effect family", family, FAMILIES)
     kind, draw = FAMILIES[family]
     places = {"joint": JOINTS, "chamber": CHAMBERS, "actuator": JOINTS, "supply": ["all"]}[kind]
     place = places[rng.integers(0, len(places))]

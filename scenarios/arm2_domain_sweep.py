@@ -32,6 +32,9 @@ from workflow.sweep import options_from_env, raise_on_failure, sweep
 from .common import main, plt
 
 SUMMARY = "PIDF tracking error over a grid of supply pressures and valve-area scales (heat map, via the sweep)"
+#: its sweep's finished cases are kept when a run is interrupted; a rerun into the same --out
+#: resumes them (pneumatics.io.OutputFolder, resumable)
+RESUMABLE = True
 
 SUPPLY_BAR = (3.0, 4.0, 5.0, 6.0, 7.0)           # absolute; the model's own is 7 bar
 AREA_SCALES = (0.35, 0.5, 0.7, 1.0, 1.4, 2.0)

@@ -22,12 +22,17 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from pneumatics.errors import PneumasimError, UnknownNameError  # noqa: E402
-from pneumatics.io import atomic_save, atomic_write_json  # noqa: E402
+from pneumatics.io import OutputFolder, atomic_save, atomic_write_json  # noqa: E402
+from pneumatics.progress import Progress  # noqa: E402
 
 
 @dataclass
 class Context:
-    """Where a scenario writes and how long it may take."""
+    """Where a scenario writes and how long it may take.
+
+    ``out`` is the staging folder of the run (pneumatics.io.OutputFolder), swapped in at
+    ``final_out`` when the scenario has finished; ``rerun_path`` likewise a temporary name
+    moved into place at the end.  Messages name files by :meth:`shown`."""
 
     name: str
     out: Path
@@ -35,12 +40,23 @@ class Context:
     rerun_path: Path | None = None
     spawn: bool = False
     written: list[Path] = field(default_factory=list)
+    final_out: Path | None = None
+
+    def shown(self, path: str | Path) -> Path:
+        """Where ``path`` (written under ``out``) will be once the run has finished."""
+        path = Path(path)
+        if self.final_out is None or not path.is_relative_to(self.out):
+            return path
+        return self.final_out / path.relative_to(self.out)
 
     def rerun_logger(self, robot, recording_name: str | None = None):
         """A Rerun logger if ``--rerun``/``--spawn`` was given, else None."""
         if self.rerun_path is None and not self.spawn:
             return None
         from workflow.rerun_log import RerunLogger
+
+        if self.rerun_path is not None:  # a fresh file: the staging folder may share it with the last run
+            self.rerun_path.unlink(missing_ok=True)
 
         return RerunLogger(robot, path=self.rerun_path, spawn=self.spawn,
                            recording_name=recording_name or self.name)
@@ -90,19 +106,28 @@ def clean_metrics(metrics: dict, name: str) -> dict:
 
 def run_scenario(name: str, out: str | Path | None = None, fast: bool = False,
                  rerun: str | Path | None = None, spawn: bool = False, quiet: bool = False) -> dict:
-    """Run scenario ``name``; writes ``metrics.json`` and its plots into ``out``."""
+    """Run scenario ``name``; writes ``metrics.json`` and its plots into ``out``.
+
+    ``out`` (and the ``rerun`` file) are checked before the scenario starts and replaced only
+    when it has finished (pneumatics.io.OutputFolder): a failed or interrupted run leaves the
+    previous results as they were.  A scenario that sets ``RESUMABLE = True`` (its sweeps keep
+    per-case files) keeps its unfinished staging folder for the next run to resume from."""
     module = load_scenario(name)
-    out = Path(out) if out else Path("runs") / name
-    ctx = Context(name, out, fast, Path(rerun) if rerun else None, spawn)
-    out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    metrics = clean_metrics(module.run(ctx), name)
-    metrics.setdefault("wall_seconds", round(time.perf_counter() - t0, 2))
-    atomic_write_json(out / "metrics.json", metrics)
+    target = Path(out) if out else Path("runs") / name
+    with OutputFolder(target, resumable=getattr(module, "RESUMABLE", False)) as folder:
+        ctx = Context(name, folder.path, fast, folder.file(rerun) if rerun else None, spawn, final_out=target)
+        with Progress(f"scenario {name}", live=False, mode="none" if quiet else None) as progress:
+            progress.say(f"started{' (--fast)' if fast else ''}; results into {target}")
+            t0 = time.perf_counter()
+            metrics = clean_metrics(module.run(ctx), name)
+            metrics.setdefault("wall_seconds", round(time.perf_counter() - t0, 2))
+            atomic_write_json(folder.path / "metrics.json", metrics)
+            rerun_written = ctx.rerun_path is not None and ctx.rerun_path.exists()
+            progress.say(f"finished in {time.perf_counter() - t0:.1f} s")
     if not quiet:
-        print(f"{name}: wrote {out / 'metrics.json'}" + "".join(f", {p.name}" for p in ctx.written))
-        if ctx.rerun_path and ctx.rerun_path.exists():
-            print(f"{name}: Rerun recording {ctx.rerun_path}")
+        print(f"{name}: wrote {target / 'metrics.json'}" + "".join(f", {p.name}" for p in ctx.written))
+        if rerun_written:
+            print(f"{name}: Rerun recording {rerun or ctx.shown(ctx.rerun_path)}")
         elif ctx.rerun_path:
             print(f"{name}: this scenario logs nothing to Rerun (its results are the PNGs and metrics)")
         print(json.dumps(metrics, indent=1))
@@ -129,3 +154,5 @@ def main(module_name: str, argv=None):
         run_scenario(name, args.out, args.fast, args.rerun, args.spawn)
     except PneumasimError as e:
         sys.exit(f"error: {e}")
+    except KeyboardInterrupt:
+        sys.exit("interrupted; the previous results are unchanged")

@@ -75,9 +75,10 @@ def doctor_demo(ctx) -> dict:
 
     seconds, held = (30.0, 15.0) if ctx.fast else (60.0, 30.0)
     case_dir = ctx.out / "doctor_case"
-    print(f"demo: making a {seconds:.0f} s recording with a hidden effect in {case_dir} ...")
+    print(f"demo: making a {seconds:.0f} s recording with a hidden effect in {ctx.shown(case_dir)} ...")
     truth = make_case(case_dir, 2024, ["valve_hysteresis"], seconds=seconds, heldout_seconds=held, name="mystery")
-    print(f"demo: pneumasim doctor --model arm2 {truth['recordings']['main']} --holdout {truth['recordings']['heldout']}")
+    print(f"demo: pneumasim doctor --model arm2 {ctx.shown(truth['recordings']['main'])} "
+          f"--holdout {ctx.shown(truth['recordings']['heldout'])} --out {ctx.shown(ctx.out / 'doctor')}")
     robot = load_robot("arm2")
     report = diagnose(robot, [read_csv(truth["recordings"]["main"])], [read_csv(truth["recordings"]["heldout"])])
     write(report, ctx.out / "doctor", robot)

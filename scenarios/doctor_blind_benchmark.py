@@ -34,6 +34,9 @@ from ._cases import BENCHMARK_FAMILIES, make_case
 from .common import main
 
 SUMMARY = "mismatch finder on concealed effects: confusion matrix, accuracy, false discoveries"
+#: its sweep's finished cases are kept when a run is interrupted; a rerun into the same --out
+#: resumes them (pneumatics.io.OutputFolder, resumable)
+RESUMABLE = True
 
 
 def plan(fast: bool):

@@ -37,6 +37,9 @@ from ._jetpipe_cases import FAMILIES, make_case
 from .common import main
 
 SUMMARY = "jet-pipe mismatch finder on concealed effects: confusion matrix, accuracy, false discoveries"
+#: its sweep's finished cases are kept when a run is interrupted; a rerun into the same --out
+#: resumes them (pneumatics.io.OutputFolder, resumable)
+RESUMABLE = True
 
 
 #: two-effect cases: families that act on different things (a sensor and a flow, the valve and

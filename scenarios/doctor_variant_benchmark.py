@@ -35,6 +35,9 @@ from .common import main
 from .doctor_blind_benchmark import judge, same_family
 
 SUMMARY = "mismatch finder on effects in other functional forms (independent variant simulator)"
+#: its sweep's finished cases are kept when a run is interrupted; a rerun into the same --out
+#: resumes them (pneumatics.io.OutputFolder, resumable)
+RESUMABLE = True
 
 PAIRS = (["coulomb_friction", "valve_hysteresis"], ["piston_leak", "angle_sensor_offset"])
 

@@ -31,7 +31,7 @@ def doc_with(**changes):
 
 
 def test_unknown_model_lists_the_valid_names():
-    with pytest.raises(UnknownNameError, match="unknown model 'arm3'; valid: .*arm2"):
+    with pytest.raises(UnknownNameError, match=r"unknown model 'arm3'; did you mean 'arm2'\? valid: .*arm2"):
         load_robot("arm3")
 
 

@@ -57,9 +57,7 @@ def diagnose(model: str, recordings: list, holdouts: list = (), progress: Callab
     else:
         from .bench.diagnose import diagnose_bench
 
-        if progress:
-            progress("fitting the bench hypotheses")
-        report = diagnose_bench(model, recordings, list(holdouts))
+        report = diagnose_bench(model, recordings, list(holdouts), progress=progress)
     report.setdefault("model", model)
     return report
 

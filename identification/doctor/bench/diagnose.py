@@ -32,8 +32,10 @@ __all__ = ["diagnose_bench", "velocity"]
 
 
 def diagnose_bench(model: str, recordings: list[Recording], holdouts: list[Recording] = (),
-                   holdout_fraction: float = HOLDOUT) -> dict:
-    """Diagnose bench recordings of ``model``; returns the report dict (see bench_report.write)."""
+                   holdout_fraction: float = HOLDOUT, progress=None) -> dict:
+    """Diagnose bench recordings of ``model``; returns the report dict (see report.write).
+    ``progress(msg)``, if given, is told each stage."""
+    say = progress or (lambda msg: None)
     if not recordings:
         raise RecordingError("bench doctor: no recordings given")
     cfg = load_bench(model)
@@ -42,5 +44,7 @@ def diagnose_bench(model: str, recordings: list[Recording], holdouts: list[Recor
             raise RecordingError(f"{r.source}: recorded for model {r.meta['model']!r} (sidecar), "
                                  f"diagnosed as {model!r}")
     if isinstance(cfg, BenchChamberCfg):
+        say("fitting the chamber model (orifice areas, heat transfer, leaks) and checking it on held-out data")
         return diagnose_chamber(model, cfg, recordings, list(holdouts), holdout_fraction)
+    say("fitting the cylinder's friction models and checking them on held-out data")
     return diagnose_cylinder(model, cfg, recordings, list(holdouts), holdout_fraction)
