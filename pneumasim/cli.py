@@ -46,7 +46,8 @@ def _cmd_doctor(args):
         report = diagnose(robot, recs, holds, progress=lambda msg: status.update(f"doctor: {msg}"))
     write(report, args.out, robot)
     print(summary(report))
-    print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
+    print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd; "
+          f"the model as fitted: {args.out}/model.toml (pneumasim run SCENARIO --fitted), {args.out}/fitted.xml (MuJoCo)")
 
 
 def _cmd_bench_doctor(args):
@@ -72,7 +73,8 @@ def _cmd_jetpipe_doctor(args):
     report = diagnose_jetpipe(args.model, recs, holds, progress=lambda msg: print(f"doctor: {msg}", file=sys.stderr))
     write(report, args.out)
     print(summary(report))
-    print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
+    print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd; "
+          f"the model as fitted: {args.out}/model.toml (pneumasim run SCENARIO --fitted), {args.out}/fitted.xml (MuJoCo)")
 
 
 def _cmd_import(args):
