@@ -15,7 +15,7 @@ def _cmd_run(args):
         for name in scenario_names():
             print(f"{name:32s} {load_scenario(name).SUMMARY}")
         return
-    run_scenario(args.name, args.out, args.fast, args.rerun, args.spawn)
+    run_scenario(args.name, args.out, args.fast, args.rerun, args.spawn, fitted=args.fitted)
 
 
 def _cmd_bench(args):
