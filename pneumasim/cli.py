@@ -17,7 +17,7 @@ def _cmd_run(args):
         for name in scenario_names():
             print(f"{name:32s} {load_scenario(name).SUMMARY}")
         return
-    run_scenario(args.name, args.out, args.fast, args.rerun, args.spawn)
+    run_scenario(args.name, args.out, args.fast, args.rerun, args.spawn, fitted=args.fitted)
 
 
 def _cmd_bench(args):
@@ -42,7 +42,10 @@ def _cmd_doctor(args):
         write(report, folder.path)
         files = sorted(p.name for p in folder.path.iterdir() if p.suffix in (".md", ".json", ".rrd", ".toml", ".xml"))
     print(summary(report))
-    print("report: " + ", ".join(f"{args.out}/{name}" for name in files))
+    print("report: " + ", ".join(f"{args.out}/{name}" for name in files if name not in ("model.toml", "fitted.xml")))
+    if "model.toml" in files:
+        print(f"the model as fitted: {args.out}/model.toml (pneumasim run SCENARIO --fitted), "
+              f"{args.out}/fitted.xml (MuJoCo)")
 
 
 def _read_recordings(args, progress):

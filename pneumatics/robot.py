@@ -9,6 +9,7 @@ import numpy as np
 
 import models
 
+from .effects.effect_set import EffectSet
 from .errors import ConfigError, UnknownNameError
 from .params import FluidCfg, load_fluid
 from .tables import FluidTables
@@ -25,6 +26,9 @@ class Robot:
       joint_names: (n_joint,) recorded joints (every hinge and slide joint).
       actuator_ids: (n_act,) MuJoCo actuator id of each fluid actuator, in TOML order.
       tables: flat arrays for the fluid update.
+      effects: effects a :class:`~pneumatics.sim.Simulation` of this robot switches on when
+        given none of its own (a fitted model's, see ``load_robot(fitted=...)``); None: none.
+      fitted: the fitted model (pneumatics.fitted_model.FittedModel) it was loaded with, or None.
     """
 
     name: str
@@ -34,6 +38,8 @@ class Robot:
     actuator_ids: np.ndarray
     tables: FluidTables
     mjcf_path: Path | None = None
+    effects: EffectSet | None = None
+    fitted: object = None
 
     @property
     def actuator_names(self) -> list[str]:
@@ -58,7 +64,9 @@ class Robot:
 
     def with_fluid(self, fluid: FluidCfg) -> "Robot":
         """The same MuJoCo model with other fluid parameters (perturbations, fitted values)."""
-        return _assemble(self.name, self.model, fluid, self.mjcf_path)
+        out = _assemble(self.name, self.model, fluid, self.mjcf_path)
+        out.effects, out.fitted = self.effects, self.fitted
+        return out
 
 
 def compile_mjcf(path: Path) -> mujoco.MjModel:
@@ -69,10 +77,16 @@ def compile_mjcf(path: Path) -> mujoco.MjModel:
         raise ConfigError(f"{path}: MJCF does not compile: {msg}") from None
 
 
-def load_robot(name: str, *, fluid: FluidCfg | None = None, scene: bool = False) -> Robot:
+def load_robot(name: str, *, fluid: FluidCfg | None = None, scene: bool = False, fitted=None) -> Robot:
     """Load model ``name`` (``models.available()`` lists them).
 
     ``fluid`` replaces the TOML parameters; ``scene`` loads ``scene.xml`` (floor, lights).
+    ``fitted``: a model.toml that ``pneumasim doctor`` wrote (path or FittedModel): the robot
+    gets its calibration (valve areas, dead volumes, masses, damping, armature) and carries its
+    effects (``robot.effects``, which a Simulation switches on).  A file fitted to another
+    model is a ConfigError; an entry the simulator applies only approximately or not at all
+    (an end stop's stiffness, a load-cell offset, a residual the doctor could not name) is a
+    :class:`pneumatics.effects.from_finding.FittedModelWarning` naming it.
     """
     try:
         path = models.mjcf_path(name, scene=scene)
@@ -80,7 +94,27 @@ def load_robot(name: str, *, fluid: FluidCfg | None = None, scene: bool = False)
         raise UnknownNameError("model", name, models.available()) from None
     model = compile_mjcf(path)
     fluid = fluid or load_fluid(models.fluid_path(name))
-    return _assemble(name, model, fluid, path)
+    robot = _assemble(name, model, fluid, path)
+    return robot if fitted is None else _with_fitted(robot, fitted)
+
+
+def _with_fitted(robot: Robot, fitted) -> Robot:
+    """``robot`` calibrated and carrying the effects of the fitted model ``fitted``."""
+    from .effects.from_finding import effect_set, warn_notes
+    from .fitted_model import FittedModel, calibrated_robot, read_fitted
+
+    fm = fitted if isinstance(fitted, FittedModel) else read_fitted(fitted)
+    src = str(fm.path or "fitted model")
+    if fm.model != robot.name:
+        raise ConfigError(f"{src}: fitted to model {fm.model!r}, not {robot.name!r}")
+    out = calibrated_robot(robot, fm)
+    out.effects, notes = effect_set(fm.effects, out, src)
+    notes += [f"{src} [[unexplained]] #{i + 1}: the doctor found a residual it could not name at "
+              + " ".join(f"{k} {v}" for k, v in u.get("where", {}).items())
+              + f" ({u.get('regime', '')}); this model does not hold it" for i, u in enumerate(fm.unexplained)]
+    warn_notes(notes)
+    out.fitted = fm
+    return out
 
 
 def _assemble(name, model, fluid, path) -> Robot:

@@ -74,13 +74,16 @@ class Simulation:
     Args:
       robot: from :func:`pneumatics.robot.load_robot`.
       kernel: ``"fast"`` (compiled, default) or ``"reference"`` (numpy, readable, slow).
+      effects: effects to switch on; default: the robot's own (``robot.effects``, a fitted
+        model's) or none.
     """
 
     def __init__(self, robot: Robot, kernel: str = "fast", effects: EffectSet | None = None):
         if kernel not in ("fast", "reference"):
             raise PneumasimError(f"unknown kernel {kernel!r}; valid: fast, reference")
         self.robot = robot
-        self.effects = effects or EffectSet()
+        # a fitted robot carries its effects (load_robot(fitted=...)); given ones replace them
+        self.effects = effects if effects is not None else (robot.effects or EffectSet())
         self.model = robot.model
         if self.effects.backlash:  # a drive hinge per joint with play: a model of its own
             self.model = backlash_model(robot, self.effects.backlash)

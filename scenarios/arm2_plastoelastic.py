@@ -20,6 +20,7 @@ from .arm2_asymptotic_pressure import equilibrium_pressure
 from .common import main, plt
 
 SUMMARY = "Fig. 2B: plasto-elasticity at null valves: a push returns, a held displacement stays"
+FITTED_MODEL = "arm2"  # takes --fitted: a doctor's model.toml of arm2 (scenarios.common)
 
 
 def trimmed_null(tab, act=1):
@@ -39,7 +40,7 @@ def trimmed_null(tab, act=1):
 
 
 def run(ctx):
-    sim = horizontal_elbow_sim()
+    sim = horizontal_elbow_sim(ctx.load_robot("arm2"))
     tab = sim.tables
     u_a, u_b, p_a, p_b = trimmed_null(tab)
     sim.reset(qpos=[0.0, 0.0], pressure_pa=[4e5, 4e5, p_a, p_b])

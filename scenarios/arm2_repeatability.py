@@ -21,10 +21,11 @@ import numpy as np
 from controllers.perturbation import ExternalPush
 from controllers.reference import JointReference, min_jerk
 
-from ._arm2_control import arm2, gains, references, run_controller
+from ._arm2_control import gains, references, run_controller
 from .common import main, plt
 
 SUMMARY = "Fig. 6C: PIDF repeats a reference three times; pushes on the last, re-convergence"
+FITTED_MODEL = "arm2"  # takes --fitted: a doctor's model.toml of arm2 (scenarios.common)
 RETURN_S = 1.0
 HOLD_S = 0.5
 PUSH_S = 0.2
@@ -46,7 +47,7 @@ def repeated(ref, times: int = 3) -> tuple[JointReference, float]:
 
 
 def run(ctx):
-    robot = arm2()
+    robot = ctx.load_robot("arm2")
     base_s = 5.0 if ctx.fast else 15.0
     base = references(robot, "normal", base_s, 1)[0]
     ref, period = repeated(base)

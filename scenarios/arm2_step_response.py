@@ -19,11 +19,12 @@ from .common import main, plt
 from .arm2_asymptotic_pressure import equilibrium_pressure
 
 SUMMARY = "Fig. 2C: elbow step response, antagonist at 0 V and at 5 V (peak velocity)"
+FITTED_MODEL = "arm2"  # takes --fitted: a doctor's model.toml of arm2 (scenarios.common)
 START_DEG = -65.0
 
 
 def one_case(antagonist_v: float, duration_s: float, ctx, label: str):
-    sim = horizontal_elbow_sim()
+    sim = horizontal_elbow_sim(ctx.load_robot("arm2"))
     tab = sim.tables
     # antagonist chamber pre-charged to its asymptote at its command; agonist exhausted
     from pneumatics.valve import valve_areas

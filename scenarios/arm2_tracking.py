@@ -24,10 +24,11 @@ from controllers.model_based import ModelBasedCfg
 from controllers.tuning import LIMIT_MARGIN_RAD, LIMIT_SPEED_RAD_S
 from identification import inverse_dynamics as idyn
 
-from ._arm2_control import SPEEDS, arm2, gains, mae_vs_lag, references, run_controller
+from ._arm2_control import SPEEDS, gains, mae_vs_lag, references, run_controller
 from .common import main, plt
 
 SUMMARY = "Fig. 6B: arm2 tracking error vs lag for PID, PIDF, model-based PIDF and MPC at two speeds"
+FITTED_MODEL = "arm2"  # takes --fitted: a doctor's model.toml of arm2 (scenarios.common)
 CONTROLLERS = ("pid", "pidf", "model_based", "mpc")
 LAGS_S = np.arange(0.0, 0.2001, 0.01)
 
@@ -93,7 +94,7 @@ def summarise(robot, recs) -> tuple[dict, dict]:
 
 
 def run(ctx):
-    robot = arm2()
+    robot = ctx.load_robot("arm2")
     n_refs, duration = (1, 6.0) if ctx.fast else (3, 60.0)
     recs, model = track(robot, n_refs=n_refs, duration_s=duration)
     model.save(ctx.out / "inverse_dynamics.json")

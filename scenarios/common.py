@@ -2,7 +2,8 @@
 
 A scenario module defines ``SUMMARY`` (one line) and ``run(ctx: Context) -> dict`` returning
 its metrics; ``python -m scenarios.<name>`` and ``pneumasim run <name>`` both go through
-:func:`main`.
+:func:`main`.  One that sets ``FITTED_MODEL = "<robot>"`` and loads that robot with
+``ctx.load_robot`` takes ``--fitted MODEL.toml`` (a doctor's fitted model of that robot).
 """
 from __future__ import annotations
 
@@ -41,6 +42,7 @@ class Context:
     spawn: bool = False
     written: list[Path] = field(default_factory=list)
     final_out: Path | None = None
+    fitted: Path | None = None      # a doctor's model.toml (--fitted): ctx.load_robot loads it
 
     def shown(self, path: str | Path) -> Path:
         """Where ``path`` (written under ``out``) will be once the run has finished."""
@@ -48,6 +50,13 @@ class Context:
         if self.final_out is None or not path.is_relative_to(self.out):
             return path
         return self.final_out / path.relative_to(self.out)
+
+    def load_robot(self, name: str, **kwargs):
+        """``pneumatics.robot.load_robot(name)``, with the run's fitted model if one was given
+        (run_scenario has checked that it was fitted to the scenario's FITTED_MODEL)."""
+        from pneumatics.robot import load_robot
+
+        return load_robot(name, fitted=self.fitted, **kwargs)
 
     def rerun_logger(self, robot, recording_name: str | None = None):
         """A Rerun logger if ``--rerun``/``--spawn`` was given, else None."""
@@ -104,23 +113,49 @@ def clean_metrics(metrics: dict, name: str) -> dict:
     return out
 
 
+def fitted_scenarios() -> list[str]:
+    """The scenarios that simulate a robot a fitted model can replace (their FITTED_MODEL)."""
+    return [n for n in scenario_names() if getattr(load_scenario(n), "FITTED_MODEL", None)]
+
+
+def check_fitted(module, name: str, fitted: Path):
+    """A fitted model for scenario ``name``: the scenario must take one (``FITTED_MODEL``, the
+    robot it simulates) and the file must be fitted to that robot."""
+    from pneumatics.fitted_model import read_fitted
+
+    robot = getattr(module, "FITTED_MODEL", None)
+    if robot is None:
+        raise PneumasimError(f"scenario {name} does not take --fitted; scenarios that do: "
+                             f"{', '.join(f'{n} ({load_scenario(n).FITTED_MODEL})' for n in fitted_scenarios())}")
+    fm = read_fitted(fitted)
+    if fm.model != robot:
+        raise PneumasimError(f"{fitted}: fitted to model {fm.model!r}, but scenario {name} simulates {robot!r}")
+
+
 def run_scenario(name: str, out: str | Path | None = None, fast: bool = False,
-                 rerun: str | Path | None = None, spawn: bool = False, quiet: bool = False) -> dict:
-    """Run scenario ``name``; writes ``metrics.json`` and its plots into ``out``.
+                 rerun: str | Path | None = None, spawn: bool = False, quiet: bool = False,
+                 fitted: str | Path | None = None) -> dict:
+    """Run scenario ``name``; writes ``metrics.json`` and its plots into ``out``.  ``fitted``: a
+    model.toml of ``pneumasim doctor`` the scenario simulates instead of the nominal robot.
 
     ``out`` (and the ``rerun`` file) are checked before the scenario starts and replaced only
     when it has finished (pneumatics.io.OutputFolder): a failed or interrupted run leaves the
     previous results as they were.  A scenario that sets ``RESUMABLE = True`` (its sweeps keep
     per-case files) keeps its unfinished staging folder for the next run to resume from."""
     module = load_scenario(name)
+    if fitted:
+        check_fitted(module, name, Path(fitted))
     target = Path(out) if out else Path("runs") / name
     with OutputFolder(target, resumable=getattr(module, "RESUMABLE", False)) as folder:
-        ctx = Context(name, folder.path, fast, folder.file(rerun) if rerun else None, spawn, final_out=target)
+        ctx = Context(name, folder.path, fast, folder.file(rerun) if rerun else None, spawn, final_out=target,
+                      fitted=Path(fitted) if fitted else None)
         with Progress(f"scenario {name}", live=False, mode="none" if quiet else None) as progress:
             progress.say(f"started{' (--fast)' if fast else ''}; results into {target}")
             t0 = time.perf_counter()
             metrics = clean_metrics(module.run(ctx), name)
             metrics.setdefault("wall_seconds", round(time.perf_counter() - t0, 2))
+            if fitted:
+                metrics["fitted_model"] = str(fitted)
             atomic_write_json(folder.path / "metrics.json", metrics)
             rerun_written = ctx.rerun_path is not None and ctx.rerun_path.exists()
             progress.say(f"finished in {time.perf_counter() - t0:.1f} s")
@@ -139,6 +174,8 @@ def add_run_options(parser: argparse.ArgumentParser):
     parser.add_argument("--fast", action="store_true", help="shortened version (used by the tests)")
     parser.add_argument("--rerun", metavar="FILE.rrd", help="log the run to a Rerun file")
     parser.add_argument("--spawn", action="store_true", help="log the run to a live Rerun viewer")
+    parser.add_argument("--fitted", metavar="MODEL.toml",
+                        help="simulate the model a doctor run fitted (its model.toml) instead of the nominal one")
 
 
 def main(module_name: str, argv=None):
@@ -151,7 +188,7 @@ def main(module_name: str, argv=None):
     add_run_options(parser)
     args = parser.parse_args(argv)
     try:
-        run_scenario(name, args.out, args.fast, args.rerun, args.spawn)
+        run_scenario(name, args.out, args.fast, args.rerun, args.spawn, fitted=args.fitted)
     except PneumasimError as e:
         sys.exit(f"error: {e}")
     except KeyboardInterrupt:

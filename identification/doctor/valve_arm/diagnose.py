@@ -20,11 +20,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pneumatics.effects.from_finding import form_of
 from pneumatics.robot import Robot
 
 from .calibrate import chamber_names as calibration_names
 from .calibrate import fit_chambers, pressure_sigma
 from .data import Experiment, pool, prepare, split
+from .fitted_model import fitted_model
 from .hypotheses import (
     mechanical_hypotheses,
     pneumatic_hypotheses,
@@ -246,6 +248,15 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         elif attr is None:
             mods = h_apply_offset(mods, hyp.chambers[0], float(v), robot.tables.n_chambers)
 
+    # each kept mechanical effect's values in the final joint refit: the model the final replay
+    # runs, and the one model.toml keeps (the report's parameters are those of its round's fit)
+    final_terms, k = {}, len(final_rfit.values) - len(extra_terms)
+    for h in kept_mech:
+        for name, *_ in h.params:
+            final_terms.setdefault(id(h), {})[name] = {"value": float(final_rfit.values[k]),
+                                                       "stderr": float(final_rfit.stderr[k])}
+            k += 1
+
     # the calibration as the findings' joint fits left it: an effect the first calibration had
     # partly absorbed (a piston leak taken up by the valve areas) hands those scales back
     names = calibration_names(robot)
@@ -374,7 +385,23 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         },
     }
     report["_replays"] = {"nominal": nominal_replay, "baseline": base_replay, "final": final_replay}
+    # the fitted model as a file (model.toml, identification.fitted_model): the final values
+    final_params = [{**f.params, **final_terms.get(id(f.scored.hyp), {})} if f.scored.hyp.kind == "mechanical"
+                    else f.params for f in findings]
+    report["_fitted"] = fitted_model(robot, report, final_params, _scale_stderr(final_cal, cal_se))
     return report
+
+
+def _scale_stderr(scales: dict, stderr: dict) -> dict:
+    """Standard errors of the calibration scales: the chambers' were fitted as log scales
+    (calibrate.chamber_params), so theirs is the scale times the log's; the rigid body's
+    directly; NaN where the fit held a scale (no error bar)."""
+    out = {}
+    for n, v in scales.items():
+        e = stderr.get(n, np.nan)
+        out[n] = float(v * e) if n.split(".")[0] in ("supply_area_scale", "exhaust_area_scale",
+                                                       "dead_volume_scale") else float(e)
+    return out
 
 
 def _residual_tests(robot, held, win_h, res_after, res_before) -> dict:
@@ -629,6 +656,7 @@ def _evidence(f: Finding) -> str:
 def _finding_json(f: Finding) -> dict:
     return {
         "effect": f.family,
+        "form": form_of(f.family, f.params),
         "where": f.where,
         "regime": f.regime,
         "windows": f.windows,

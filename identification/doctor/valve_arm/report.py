@@ -45,10 +45,15 @@ def summary(report: dict) -> str:
 
 
 def write(report: dict, out: str | Path, robot=None, rerun: bool = True) -> Path:
+    """report.json, report.md with its plots and (with ``robot``) doctor.rrd, model.toml and
+    fitted.xml (identification.fitted_model) in folder ``out``; returns report.json's path."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     replays = report.pop("_replays", None)
     atomic_write_json(out / "report.json", jsonable(report))
+    if report.get("_fitted") is not None and robot is not None:  # the model as fitted: model.toml, fitted.xml
+        from .fitted_model import write_fitted_files
+        write_fitted_files(report["_fitted"], out, robot)
     pngs = []
     if replays:
         pngs = _plots(report, replays, out)
