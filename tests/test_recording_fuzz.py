@@ -20,7 +20,7 @@ SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[Heal
 @st.composite
 def recordings(draw):
     n = draw(st.integers(2, 25))
-    names = draw(st.lists(st.sampled_from(NAMES), unique=True, max_size=len(NAMES)))
+    names = draw(st.lists(st.sampled_from(NAMES), unique=True, min_size=1, max_size=len(NAMES)))
     steps = draw(st.lists(st.floats(1e-6, 10.0), min_size=n - 1, max_size=n - 1))
     t0 = draw(st.floats(-100.0, 100.0))
     time = t0 + np.concatenate([[0.0], np.cumsum(steps)])
