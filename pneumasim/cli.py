@@ -40,8 +40,7 @@ def _cmd_doctor(args):
 
     console = Console(stderr=True)
     robot = load_robot(args.model)
-    recs = [read_csv(p) for p in args.recordings]
-    holds = [read_csv(p) for p in (args.holdout or [])]
+    recs, holds = _read_recordings(args, robot.tables.room_pa)
     with console.status("doctor: starting") as status:
         report = diagnose(robot, recs, holds, progress=lambda msg: status.update(f"doctor: {msg}"))
     write(report, args.out, robot)
@@ -51,11 +50,10 @@ def _cmd_doctor(args):
 
 def _cmd_bench_doctor(args):
     from identification.bench_doctor import diagnose_bench
+    from identification.bench_model import load_bench
     from identification.bench_report import summary, write
-    from pneumatics.recording import read_csv
 
-    recs = [read_csv(p) for p in args.recordings]
-    holds = [read_csv(p) for p in (args.holdout or [])]
+    recs, holds = _read_recordings(args, load_bench(args.model).room_pa)
     report = diagnose_bench(args.model, recs, holds)
     write(report, args.out)
     print(summary(report))
@@ -63,16 +61,28 @@ def _cmd_bench_doctor(args):
 
 
 def _cmd_jetpipe_doctor(args):
+    from identification.jetpipe_data import load_model_cfg
     from identification.jetpipe_doctor import diagnose_jetpipe
     from identification.jetpipe_report import summary, write
-    from pneumatics.recording import read_csv
 
-    recs = [read_csv(p) for p in args.recordings]
-    holds = [read_csv(p) for p in (args.holdout or [])]
+    recs, holds = _read_recordings(args, load_model_cfg(args.model).supply.room_pa)
     report = diagnose_jetpipe(args.model, recs, holds, progress=lambda msg: print(f"doctor: {msg}", file=sys.stderr))
     write(report, args.out)
     print(summary(report))
     print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
+
+
+def _read_recordings(args, room_pa: float):
+    """(fitted, held-out) recordings of ``pneumasim doctor``; with ``--gauge`` the room pressure
+    [Pa] (the sidecar's room_pa, else the model's) is added to every p_a./p_b. column."""
+    from pneumatics.recording import read_csv
+    from pneumatics.recording_checks import add_room_pressure
+
+    def read(path):
+        rec = read_csv(path)
+        return add_room_pressure(rec, float(rec.meta.get("room_pa", room_pa))) if args.gauge else rec
+
+    return [read(p) for p in args.recordings], [read(p) for p in (args.holdout or [])]
 
 
 def _cmd_import(args):
@@ -153,6 +163,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("recordings", nargs="+", metavar="REC.csv", help="recordings to fit")
     p.add_argument("--holdout", nargs="+", metavar="REC.csv", help="held-out recordings (default: last 30 %%)")
     p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--gauge", action="store_true",
+                   help="the recordings' pressures are gauge (relative to the room): add the model's room pressure")
     p.set_defaults(func=_cmd_doctor)
     p = sub.add_parser("import", help="convert a lab log into a recording CSV with a mapping file")
     p.add_argument("src", metavar="SRC", help="the lab's raw log")
