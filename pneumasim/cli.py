@@ -50,12 +50,18 @@ def _cmd_doctor(args):
 
 def _read_recordings(args, progress):
     """The doctor's recordings and held-out recordings, each by its suffix (CSV, Parquet, or a
-    ROS bag read through --map)."""
+    ROS bag read through --map); with ``--gauge`` the room pressure [Pa] (the sidecar's
+    room_pa, else the model's) is added to every p_a./p_b. column."""
+    from identification.doctor import room_pressure_pa
     from pneumatics.formats.by_suffix import read_recording
     from pneumatics.formats.rosbag import is_ros_bag
+    from pneumatics.recording_checks import add_room_pressure
+
+    room_pa = room_pressure_pa(args.model)
 
     def read(path):
-        return read_recording(path, args.map if is_ros_bag(path) else None)
+        rec = read_recording(path, args.map if is_ros_bag(path) else None)
+        return add_room_pressure(rec, float(rec.meta.get("room_pa", room_pa))) if args.gauge else rec
 
     progress.say(f"reading {len(args.recordings) + len(args.holdout or [])} recording(s)")
     return [read(p) for p in args.recordings], [read(p) for p in (args.holdout or [])]
@@ -145,6 +151,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--map", metavar="MAP.toml",
                    help="import map with a [ros] section for ROS bag recordings, or a shipped one's name (ros_arm2)")
     p.add_argument("--out", required=True, help="output folder, replaced whole when the run has finished")
+    p.add_argument("--gauge", action="store_true",
+                   help="the recordings' pressures are gauge (relative to the room): add the model's room pressure")
     p.set_defaults(func=_cmd_doctor)
     p = sub.add_parser("import", help="convert a lab log or a ROS bag into a recording with a mapping file")
     p.add_argument("src", metavar="SRC", help="the lab's raw log, or a ROS bag (.bag, .db3, .mcap, ROS 2 bag folder)")

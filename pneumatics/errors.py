@@ -36,3 +36,8 @@ class UnknownNameError(PneumasimError, KeyError):
 
     def __str__(self) -> str:  # KeyError would add quotes around the message
         return self.args[0]
+
+
+class ArgumentError(PneumasimError, ValueError):
+    """A Python API argument outside its valid range or of the wrong type; names the argument
+    and what is valid.  A ValueError too, so ``except ValueError`` callers keep working."""

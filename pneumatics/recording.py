@@ -109,36 +109,46 @@ class Recording:
 WRITERS = {".csv": "to_csv", ".parquet": "to_parquet"}
 
 
+#: delimiters a recording may use (Excel in a locale with a decimal comma writes semicolons)
+DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
+#: sidecar fields pneumasim reads -> (type(s) expected, description); other fields are kept as they are
+SIDECAR_FIELDS = {
+    "model": (str, "a model name"),
+    "daq_averaging": (bool, "true or false"),
+    "rate_hz": ("positive", "a positive number [Hz]"),
+    "physics_dt_s": ("positive", "a positive number [s]"),
+    "room_pa": ("positive", "a positive number [Pa abs]"),
+    "supply_pa": ("positive", "a positive number [Pa abs]"),
+    "bore_m": ("positive", "a positive number [m]"),
+    "volume_m3": ("positive", "a positive number [m^3]"),
+}
+
+
 def read_csv(path: str | Path) -> Recording:
-    """Read a recording; raises :class:`RecordingError` naming file, row and column."""
+    """Read a recording; raises :class:`RecordingError` naming file, row and column.
+
+    Accepts what lab software writes: UTF-8 with or without a byte-order mark (Excel's
+    "CSV UTF-8"), LF or CRLF line ends, and a comma, semicolon or tab delimiter (detected from
+    the header row; with a semicolon or tab, a decimal comma "0,25" is read as 0.25)."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise RecordingError(f"{path}: recording not found") from None
-    except UnicodeDecodeError:
-        raise RecordingError(f"{path}: not a text (CSV) file") from None
-    rows = list(csv.reader(io.StringIO(text)))
-    rows = [r for r in rows if r and any(c.strip() for c in r)]
-    if not rows:
+    text = _read_text(path)
+    lines = [ln for ln in text.splitlines() if ln.strip()]
+    if not lines:
         raise RecordingError(f"{path}: empty file")
+    if len(lines) > 1 and not text.endswith(("\n", "\r")):
+        warnings.warn(f"{path}: the last line (row {len(lines)}) has no line end: if the file was cut short "
+                      "(a copy or a logger stopped mid-write), its last row may be incomplete", RecordingWarning,
+                      stacklevel=2)
+    delim = _delimiter(path, lines[0])
+    rows = [r for r in csv.reader(lines, delimiter=delim) if r and any(c.strip() for c in r)]
     header = [h.strip() for h in rows[0]]
     if "time" not in header:
-        raise RecordingError(f"{path}: no 'time' column in the header (got {', '.join(header[:8])}...)")
+        raise RecordingError(f"{path}: no 'time' column in the header (read as {DELIMITERS[delim]}-separated, "
+                             f"got {', '.join(map(repr, header[:8]))}{'...' if len(header) > 8 else ''})")
     dup = {h for h in header if header.count(h) > 1}
     if dup:
         raise RecordingError(f"{path}: repeated column(s) {sorted(dup)}")
-    n_col = len(header)
-    data = np.empty((len(rows) - 1, n_col))
-    for i, row in enumerate(rows[1:]):
-        line = i + 2
-        if len(row) != n_col:
-            raise RecordingError(f"{path}: line {line} has {len(row)} fields, the header has {n_col}")
-        for j, cell in enumerate(row):
-            try:
-                data[i, j] = float(cell)
-            except ValueError:
-                raise RecordingError(f"{path}: line {line}, column {header[j]!r}: {cell!r} is not a number") from None
+    data = _numbers(path, rows[1:], header, decimal_comma=delim != ",")
     bad = ~np.isfinite(data)
     if bad.any():
         i, j = np.argwhere(bad)[0]
@@ -153,13 +163,8 @@ def read_csv(path: str | Path) -> Recording:
         raise RecordingError(f"{path}: time is not strictly increasing at line {i + 3} "
                              f"({t[i]:g} s then {t[i + 1]:g} s)")
     columns = {h: data[:, j].copy() for j, h in enumerate(header) if h != "time"}
-    meta = {}
     side = path.with_suffix(".json")
-    if side.is_file():
-        try:
-            meta = json.loads(side.read_text())
-        except json.JSONDecodeError as e:
-            raise RecordingError(f"{side}: sidecar is not valid JSON: {e}") from None
+    meta = read_sidecar(side) if side.is_file() else {}
     return Recording(t.copy(), columns, meta, str(path))
 
 
@@ -167,6 +172,90 @@ def read_parquet(path: str | Path) -> Recording:
     """Read a Parquet recording with the checks of :func:`read_csv` (formats/parquet.py)."""
     t, columns, meta = parquet.read_table(path)
     return Recording(t, columns, meta, str(path))
+
+
+def _read_text(path: Path) -> str:
+    """The file's text: UTF-8, a leading byte-order mark dropped; UTF-16 named in the error."""
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise RecordingError(f"{path}: recording not found") from None
+    except IsADirectoryError:
+        raise RecordingError(f"{path}: is a folder, not a recording (CSV) file") from None
+    if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        raise RecordingError(f"{path}: UTF-16 text (Excel's 'Unicode Text'); save it as 'CSV UTF-8' "
+                             "or plain CSV")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise RecordingError(f"{path}: not a UTF-8 text (CSV) file (byte {e.start} cannot be read)") from None
+
+
+def _delimiter(path: Path, header_line: str) -> str:
+    """The delimiter the header row uses: the most frequent of comma, semicolon and tab."""
+    counts = {d: header_line.count(d) for d in DELIMITERS}
+    best = max(counts, key=counts.get)
+    if counts[best] == 0:
+        if header_line.strip() == "time":
+            return ","
+        others = "spaces" if len(header_line.split()) > 1 else "nothing pneumasim knows"
+        raise RecordingError(f"{path}: the header row {header_line[:60]!r} is separated by {others}; "
+                             f"pneumasim reads comma, semicolon or tab separated files")
+    return best
+
+
+def _numbers(path: Path, rows: list, header: list, decimal_comma: bool) -> np.ndarray:
+    """(N, n_col) floats of the data rows; the first bad cell raises, naming its line and column."""
+    n_col = len(header)
+    data = np.empty((len(rows), n_col))
+    for i, row in enumerate(rows):
+        line = i + 2
+        if len(row) != n_col:
+            raise RecordingError(f"{path}: line {line} has {len(row)} fields, the header has {n_col}")
+        for j, cell in enumerate(row):
+            try:
+                data[i, j] = float(cell)
+            except ValueError:
+                if decimal_comma and cell.count(",") == 1 and "." not in cell:
+                    try:
+                        data[i, j] = float(cell.replace(",", "."))
+                        continue
+                    except ValueError:
+                        pass
+                raise RecordingError(f"{path}: line {line}, column {header[j]!r}: {cell!r} is not a number") from None
+    return data
+
+
+def read_sidecar(path: str | Path) -> dict:
+    """A recording's sidecar ``<name>.json``: a JSON object whose fields pneumasim reads
+    (:data:`SIDECAR_FIELDS`) have the right types; raises :class:`RecordingError` naming the
+    file and field."""
+    path = Path(path)
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8-sig"))
+    except UnicodeDecodeError:
+        raise RecordingError(f"{path}: sidecar is not UTF-8 text") from None
+    except json.JSONDecodeError as e:
+        raise RecordingError(f"{path}: sidecar is not valid JSON: {e}") from None
+    if not isinstance(meta, dict):
+        raise RecordingError(f"{path}: sidecar must be a JSON object {{\"field\": value, ...}}, "
+                             f"got a JSON {_json_kind(meta)}")
+    for name, (kind, expected) in SIDECAR_FIELDS.items():
+        if name not in meta or meta[name] is None:
+            continue
+        v = meta[name]
+        if kind == "positive":
+            ok = (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0)
+        else:
+            ok = isinstance(v, kind)
+        if not ok:
+            raise RecordingError(f"{path}: sidecar field {name!r} must be {expected}, got {json.dumps(v)}")
+    return meta
+
+
+def _json_kind(value) -> str:
+    return {list: "array", str: "string", bool: "boolean", int: "number", float: "number",
+            type(None): "null"}.get(type(value), type(value).__name__)
 
 
 def validate(rec: Recording, joint_names, actuator_names, *, need_commands: bool = True,

@@ -34,12 +34,16 @@ from .effects.backlash import addresses, backlash_model, drive_pairs
 from .effects.effect_set import EffectSet
 from .effects.friction import friction_torque
 from .effects.heat_transfer import thermal_step
-from .errors import PneumasimError
+from . import arguments
+from .errors import ArgumentError, PneumasimError
 from .kernel import fluid_step_fast, pack, run_steps_compiled
 from .robot import Robot
 from .tables import valve_areas_table
 
 COMMAND_RANGE_V = (0.0, 10.0)
+#: commands further than this outside COMMAND_RANGE_V are not a saturated controller but a unit
+#: slip (mV, a pressure, a percentage): they raise instead of being clipped
+COMMAND_SLIP_V = 10.0
 
 
 class CommandClippedWarning(UserWarning):
@@ -136,19 +140,29 @@ class Simulation:
 
     # -- state ---------------------------------------------------------------------------
     def reset(self, keyframe: str | None = "home", pressure_pa=None, qpos=None):
-        """Reset MuJoCo to ``keyframe`` (if the model has it) and every chamber to ``pressure_pa``
-        (scalar or (n_ch,); default: room pressure).  Commands go to each valve's null."""
+        """Reset MuJoCo to ``keyframe`` (None: the model's qpos0) and every chamber to
+        ``pressure_pa`` [Pa abs] (scalar or (n_ch,); default: room pressure), the joints to
+        ``qpos`` ((n_joint,) [rad or m]) if given.  Commands go to each valve's null.
+
+        Raises :class:`~pneumatics.errors.ArgumentError` (or UnknownNameError for a keyframe
+        the model lacks) before changing anything: pressures must be finite and within
+        1 kPa .. 2 x the supply, joint positions finite and inside the joint ranges."""
+        names = [f"{a}.{c}" for a, c in self.robot.chamber_names]
+        key = None if keyframe is None else arguments.keyframe_id(self.model, keyframe)
+        pressure = (None if pressure_pa is None else
+                    arguments.chamber_pressures(pressure_pa, self.tables.n_chambers, self.tables.supply_pa, names))
+        if qpos is not None:
+            m = self.robot.model
+            limited = [bool(m.jnt_limited[m.joint(n).id]) for n in self.robot.joint_names]
+            qpos = arguments.joint_positions(qpos, self.robot.joint_names, self.robot.joint_range(), limited)
         mujoco.mj_resetData(self.model, self.data)
-        if keyframe is not None and self.model.nkey:
-            try:
-                mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key(keyframe).id)
-            except KeyError:
-                pass
+        if key is not None:
+            mujoco.mj_resetDataKeyframe(self.model, self.data, key)
         if qpos is not None:
             self.data.qpos[self._qadr] = qpos
             k, _, drive_qadr, _ = self._drive
             self.data.qpos[drive_qadr] = self.data.qpos[self._qadr[k]]  # backlash: drive at the link
-        self.pressure[:] = self.tables.room_pa if pressure_pa is None else pressure_pa
+        self.pressure[:] = self.tables.room_pa if pressure is None else pressure
         self.gas_temperature[:] = self.tables.gas.temperature_k
         self.command[:] = self.tables.valve[:, 0]
         self.spool[:] = self.command
@@ -185,16 +199,27 @@ class Simulation:
         """Set all (n_ch,) valve commands [V], held until changed.
 
         NaN or inf raise; values outside 0-10 V are clipped like a real valve driver, with a
-        :class:`CommandClippedWarning` once per run."""
-        u = np.asarray(command_v, float)
+        :class:`CommandClippedWarning` once per run; values more than COMMAND_SLIP_V outside
+        it (a unit slip) raise :class:`~pneumatics.errors.ArgumentError`."""
+        try:
+            u = np.array(command_v, dtype=float)
+        except (TypeError, ValueError):
+            raise ArgumentError(f"set_command(command_v): expected {self.command.size} numbers [V], "
+                                f"got {command_v!r}") from None
         if u.shape != self.command.shape:
-            raise PneumasimError(f"valve commands: expected shape {self.command.shape} "
-                                 f"(one per chamber), got {u.shape}")
+            raise ArgumentError(f"set_command(command_v): expected shape {self.command.shape} "
+                                f"(one per chamber), got {u.shape}")
         if not np.all(np.isfinite(u)):
             bad = [f"{a}.{c}" for (a, c), ok in zip(self.robot.chamber_names, np.isfinite(u)) if not ok]
-            raise PneumasimError(f"valve commands are NaN or inf for chamber(s) {', '.join(bad)} "
-                                 f"at t = {self.time:.3f} s")
+            raise ArgumentError(f"set_command(command_v): valve commands are NaN or inf for chamber(s) "
+                                f"{', '.join(bad)} at t = {self.time:.3f} s")
         lo, hi = COMMAND_RANGE_V
+        slip = (u < lo - COMMAND_SLIP_V) | (u > hi + COMMAND_SLIP_V)
+        if slip.any():
+            i = int(np.argmax(slip))
+            a, c = self.robot.chamber_names[i]
+            raise ArgumentError(f"set_command(command_v): {u[i]:.6g} V for chamber {a}.{c} is far outside the "
+                                f"valve's {lo:g}-{hi:g} V (clipped within {COMMAND_SLIP_V:g} V of it): wrong unit?")
         if (u.min() < lo or u.max() > hi) and not self._clip_warned:
             self._clip_warned = True
             warnings.warn(f"valve commands outside {lo:g}-{hi:g} V (min {u.min():.3g}, max {u.max():.3g}) "
@@ -239,7 +264,9 @@ class Simulation:
         """Advance ``n`` physics steps with the current commands.
 
         The pressures, qpos and qvel at each new instant are added into ``self.sums``
-        (see :meth:`take_mean`), for DAQ-style sensor averaging."""
+        (see :meth:`take_mean`), for DAQ-style sensor averaging.  ``n`` must be a whole
+        number >= 1 (:class:`~pneumatics.errors.ArgumentError` otherwise)."""
+        n = arguments.step_count(n, "Simulation.step")
         if self._valve_dynamics:
             for _ in range(n):
                 self._advance_spool()

@@ -38,6 +38,22 @@ def kind_of(model: str) -> str:
     return kind
 
 
+def room_pressure_pa(model: str) -> float:
+    """The room pressure [Pa] of shipped model ``model`` (what ``--gauge`` adds to pressures)."""
+    kind = kind_of(model)
+    if kind == "valve_arm":
+        from pneumatics.robot import load_robot
+
+        return float(load_robot(model).tables.room_pa)
+    if kind == "jetpipe":
+        from .jetpipe.data import load_model_cfg
+
+        return float(load_model_cfg(model).supply.room_pa)
+    from pneumatics.bench.model import load_bench
+
+    return float(load_bench(model).room_pa)
+
+
 def diagnose(model: str, recordings: list, holdouts: list = (), progress: Callable[[str], None] | None = None) -> dict:
     """Diagnose ``recordings`` (``pneumatics.recording.Recording``) of shipped model ``model``
     with its kind's doctor; ``holdouts`` are judged on (default: the end of each recording).

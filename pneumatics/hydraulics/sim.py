@@ -26,6 +26,7 @@ import numpy as np
 
 import models
 
+from .. import arguments
 from ..errors import ConfigError
 from .circuit import BLOCKED, VALVE, HydraulicCircuit, Port
 from .config import HydraulicCfg, load_hydraulic_cfg
@@ -33,6 +34,8 @@ from .hysteresis import Hysteresis
 from .servovalve import ValveTip
 
 VANE_JOINT, SHAFT_JOINT, LOAD_TENDON, BRACE, ACTUATOR = "elbow", "shaft", "load_angle", "brace", "elbow"
+#: a current beyond this many times the saturation current is a unit slip (mA given as A)
+CURRENT_SLIP_FACTOR = 10.0
 
 
 class HydraulicJointSim:
@@ -77,10 +80,11 @@ class HydraulicJointSim:
     def reset(self, keyframe: str = "home", demagnetize: bool = True, braced: bool = False):
         """Keyframe pose at rest, hydraulics at the null steady state, valve demagnetised
         (paper 001 §4: "a decaying sinusoidal current ... valve tip practically at the null")."""
-        try:
-            mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key(keyframe).id)
-        except KeyError:  # the bare MJCF has no keyframes (they are in scene.xml): qpos0
+        key = arguments.keyframe_id(self.model, keyframe)  # an unknown name raises, listing the valid
+        if key is None:  # the bare MJCF has no keyframes (they are in scene.xml): qpos0
             mujoco.mj_resetData(self.model, self.data)
+        else:
+            mujoco.mj_resetDataKeyframe(self.model, self.data, key)
         self.brace(braced)
         self.circuit.ports = [VALVE, VALVE]
         self.circuit.y = self.circuit.null_state()
@@ -109,14 +113,20 @@ class HydraulicJointSim:
         self.circuit.ports = ports
 
     def set_current(self, current_a: float):
-        """Valve current command [A], held until the next call; passes through the hysteresis."""
+        """Valve current command [A], held until the next call; passes through the hysteresis.
+
+        Finite; saturated at +-saturation_current_a, refused beyond CURRENT_SLIP_FACTOR times it
+        (a unit slip, mA given as A: :class:`~pneumatics.errors.ArgumentError`)."""
         i_sat = self.cfg.hysteresis.saturation_current_a
-        self.current_a = min(max(float(current_a), -i_sat), i_sat)
+        current_a = arguments.command_in_range(current_a, -CURRENT_SLIP_FACTOR * i_sat, CURRENT_SLIP_FACTOR * i_sat,
+                                               "HydraulicJointSim.set_current(current_a)", "A")
+        self.current_a = min(max(current_a, -i_sat), i_sat)
         self.i_hys_a = self.hysteresis(self.current_a)
 
     # ----------------------------------------------------------------- stepping
     def step(self, n: int = 1):
-        """Advance ``n`` physics steps."""
+        """Advance ``n`` physics steps (a whole number >= 1)."""
+        n = arguments.step_count(n, "HydraulicJointSim.step")
         m, d, c, tip = self.model, self.data, self.circuit, self.tip
         dt, d_v, vq, vd, act = self.dt, self.d_v, self._vane_q, self._vane, self._act
         for _ in range(n):

@@ -24,6 +24,7 @@ import numpy as np
 
 import models
 
+from .. import arguments
 from ..errors import PneumasimError
 from ..recording import Recording
 from ..sim import Observation
@@ -36,6 +37,9 @@ from .plant import I_CURRENT, I_P1, I_P2, I_X, rk4_step
 MODEL = "jetpipe"
 ACTUATOR = "piston"
 MAX_FLUID_STEP_S = 1e-4
+#: a current command beyond this many times the driver's limit is a unit slip (mA given as A),
+#: not a saturated controller: it raises; inside it the driver saturates (kernel.rhs)
+CURRENT_SLIP_FACTOR = 10.0
 """Largest RK4 substep [s] of the valve and chambers: h |lambda| <= 0.71 for the driver pole."""
 _STOPPER_FACE_OFFSET_M = 0.004  # piston half-thickness + stopper half-thickness (jetpipe.xml)
 
@@ -122,7 +126,12 @@ class JetpipeSim:
     def reset(self, force_n: float | None = None, hysteresis: bool = True):
         """Piston on the stopper; valve and chambers steady at ``force_n`` [N] (the paper's
         model, no hysteresis, gives the state) or at rest with room pressure (None).  The
-        hysteresis starts demagnetised at the current's tip force."""
+        hysteresis starts demagnetised at the current's tip force.  ``force_n`` must be finite and
+        within the largest steady pull or push, A_p (supply - room) (eq. 13)."""
+        if force_n is not None:
+            s = self.cfg.supply
+            f_max = self.cfg.cylinder.piston_area_m2 * (s.supply_pa - s.room_pa)
+            force_n = arguments.command_in_range(force_n, -f_max, f_max, "JetpipeSim.reset(force_n)", "N")
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[0] = self.cfg.cylinder.chamber1_length_m
         if force_n is None:
@@ -182,9 +191,14 @@ class JetpipeSim:
         self.data.ctrl[0] = self.pressure_force_n()
 
     def step(self, command_a: float | None = None, n: int = 1):
-        """Advance n physics steps with the current command [A] held (None: keep the last)."""
+        """Advance n physics steps with the current command [A] held (None: keep the last).
+
+        ``n`` >= 1 whole; ``command_a`` finite, saturated by the driver at +-current_limit_a and
+        refused beyond CURRENT_SLIP_FACTOR times that (:class:`~pneumatics.errors.ArgumentError`)."""
+        n = arguments.step_count(n, "JetpipeSim.step")
         if command_a is not None:
-            self.command_a = float(command_a)
+            slip = CURRENT_SLIP_FACTOR * self.cfg.driver.current_limit_a
+            self.command_a = arguments.command_in_range(command_a, -slip, slip, "JetpipeSim.step(command_a)", "A")
         h = self.dt / self.substeps
         for _ in range(n):
             q, qd = float(self.data.qpos[0]), float(self.data.qvel[0])

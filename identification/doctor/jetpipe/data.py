@@ -18,6 +18,7 @@ import models
 from pneumatics.errors import RecordingError
 from pneumatics.jetpipe.params import JetpipeCfg, load_jetpipe_cfg
 from pneumatics.recording import Recording
+from pneumatics.recording_checks import check_pressures
 
 from .replay import BURN_IN_S, Trace, make_trace
 
@@ -51,11 +52,8 @@ def check(rec: Recording, model: str, cfg: JetpipeCfg):
         if c in rec and not np.all(np.isfinite(rec[c])):
             row = int(np.argmin(np.isfinite(rec[c])))
             raise RecordingError(f"{rec.source}: column {c} row {row + 1}: not a finite number")
-    for c in ("p_a.piston", "p_b.piston"):
-        if np.min(rec[c]) < 0.5 * cfg.supply.room_pa:  # the chambers vent to the room: never far below it
-            row = int(np.argmin(rec[c]))
-            raise RecordingError(f"{rec.source}: column {c} row {row + 1} reads {rec[c][row]:.4g}, below half the room "
-                                 "pressure: looks like gauge pressure or a wrong unit; expected Pa absolute")
+    # the chambers vent to the room and are fed from the supply: gauge values or another unit
+    check_pressures(rec, cfg.supply.room_pa, cfg.supply.supply_pa, ("p_a.piston", "p_b.piston"))
     if "q.piston" in rec and np.ptp(rec["q.piston"]) > MAX_PISTON_TRAVEL_M:
         raise RecordingError(f"{rec.source}: column q.piston moves {1e3 * np.ptp(rec['q.piston']):.2f} mm; the "
                              f"jet-pipe doctor handles the stopper bench (piston held, <= {1e3 * MAX_PISTON_TRAVEL_M:g} mm)")

@@ -14,11 +14,15 @@ import numpy as np
 
 from pneumatics.errors import RecordingError
 from pneumatics.recording import Recording, validate
+from pneumatics.recording_checks import check_for_robot
 from pneumatics.robot import Robot
 
 from identification.base.smoothing import discrepancy_lambda, smooth_derivatives, spline_cutoff_hz
 
 FINE_DT = 1e-3
+#: rows each prepared part (fitted or held out) needs: the smoothing splines, the 30-sample
+#: replay windows and the 100-sample bootstrap blocks of the doctor (2 s at 100 Hz)
+MIN_ROWS = 200
 
 
 @dataclass
@@ -55,9 +59,11 @@ class Experiment:
 def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None) -> Experiment:
     """Validate ``rec`` against ``robot`` and prepare it (raises RecordingError on bad data)."""
     validate(rec, robot.joint_names, robot.actuator_names, model_name=robot.name)
+    check_for_robot(rec, robot)  # gauge pressures, degrees, values the robot cannot produce
     t = rec.time
-    if t.size < 200:
-        raise RecordingError(f"{rec.source}: {t.size} rows is too short to diagnose (need >= 200, ~2 s at 100 Hz)")
+    if t.size < MIN_ROWS:
+        raise RecordingError(f"{rec.source}: {t.size} rows is too short to diagnose (need >= {MIN_ROWS}, "
+                             f"{MIN_ROWS / rec.rate_hz:.3g} s at its {rec.rate_hz:.4g} Hz)")
     dt = np.diff(t)
     if np.max(dt) > 1.5 * np.median(dt) or np.min(dt) < 0.5 * np.median(dt):
         i = int(np.argmax(np.abs(dt - np.median(dt))))

@@ -21,11 +21,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pneumatics.effects.from_finding import form_of
+from pneumatics.errors import RecordingError
 from pneumatics.robot import Robot
 
 from .calibrate import chamber_names as calibration_names
 from .calibrate import fit_chambers, pressure_sigma
-from .data import Experiment, pool, prepare, split
+from .data import MIN_ROWS, Experiment, pool, prepare, split
 from .fitted_model import fitted_model
 from .hypotheses import (
     mechanical_hypotheses,
@@ -56,6 +57,7 @@ from .screening import (
 )
 
 HORIZON = 30               # samples per pressure-replay window (0.3 s at 100 Hz)
+HOLDOUT_SHARE = 0.3        # the end of each recording held out when no held-out files are given
 MIN_PREDICTED = 0.02       # score-test gain worth a full fit
 PNEU_KEEP = 0.20           # held-out reduction of the located chambers' mean square to keep an effect
 MECH_KEEP = 0.10           # held-out reduction of the joint's torque residual mean square ...
@@ -112,11 +114,12 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     """Run the doctor; returns the report dict (DESIGN.md report.json) with extras."""
     t_start = time.perf_counter()
     if not recordings:
-        raise ValueError("no recordings")
+        raise RecordingError("doctor: no recordings given")
+    _check_lengths(recordings, holdouts)
     if holdouts:
         train_recs, held_recs = list(recordings), list(holdouts)
     else:  # the last 30 % of each recording is held out
-        pairs = [split(r, 0.3) for r in recordings]
+        pairs = [split(r, HOLDOUT_SHARE) for r in recordings]
         train_recs, held_recs = [a for a, _ in pairs], [b for _, b in pairs]
     _say(progress, "reading and checking recordings")
     exp = pool([prepare(robot, r) for r in train_recs])
@@ -232,30 +235,43 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         # joint for the next round or the unexplained check: fit them again beside it
         calibrate_rigid_body(td, *base_extra)
     outside += _outside_without_finding(robot, exp, td, held, td_h, findings, outside, kept_mech, base_extra)
-    final_rfit = fit_rigid_body(td, *base_extra) if base_extra else rfit
-    # pressure-sensor offsets found by the torque balance act on the chambers in the replays
-    term_hyps = [h for h in kept_mech for _ in h.params]
-    term_se = final_rfit.stderr[len(final_rfit.values) - len(extra_terms):]
-    for (attr, _), v, se, hyp in zip(extra_terms, final_rfit.values[len(final_rfit.values) - len(extra_terms):],
-                                     term_se, term_hyps):
-        if attr is None and hyp in refine:  # the replays' offset, refined by the torque balance
-            c = hyp.chambers[0]
-            total = float(mods.sensor_offset_pa[c] + v)
-            mods = h_apply_offset(mods, c, total, robot.tables.n_chambers)
-            for f in findings:
-                if f.family == "pressure_sensor_offset" and f.where == hyp.where:
-                    f.params["offset_pa"] = {"value": total, "stderr": float(se)}
-        elif attr is None:
-            mods = h_apply_offset(mods, hyp.chambers[0], float(v), robot.tables.n_chambers)
-
-    # each kept mechanical effect's values in the final joint refit: the model the final replay
-    # runs, and the one model.toml keeps (the report's parameters are those of its round's fit)
-    final_terms, k = {}, len(final_rfit.values) - len(extra_terms)
-    for h in kept_mech:
-        for name, *_ in h.params:
-            final_terms.setdefault(id(h), {})[name] = {"value": float(final_rfit.values[k]),
-                                                       "stderr": float(final_rfit.stderr[k])}
-            k += 1
+    # the final joint fit moves each kept term's value and error: the keep rule (>= MIN_T standard
+    # errors) is applied to those final numbers, the ones reported; a term that fails it is
+    # withdrawn with its finding and the rest refitted without it, until all pass
+    replay_offset = (np.zeros(robot.tables.n_chambers) if mods.sensor_offset_pa is None
+                     else mods.sensor_offset_pa.copy())
+    withdrawn = []
+    while True:
+        final_rfit = fit_rigid_body(td, *base_extra) if base_extra else rfit
+        n_terms = sum(len(h.params) for h in kept_mech)
+        finals = final_terms(kept_mech, refine, final_rfit.values[len(final_rfit.values) - n_terms:],
+                             final_rfit.stderr[len(final_rfit.values) - n_terms:], replay_offset)
+        failing = [h for h, vals, ses in finals if not passes_keep_rule(vals, ses)]
+        if not failing:
+            break
+        for h, vals, ses in finals:
+            if h in failing:
+                withdrawn += _withdraw(findings, h, refine, vals, ses)
+        if any(h in refine for h in failing):  # the torque data were corrected by that offset
+            for h in failing:
+                if h in refine:
+                    replay_offset[h.chambers[0]] = 0.0
+            mods = mods.copy(sensor_offset_pa=replay_offset.copy())
+            td, td_h = torque_data(_corrected(exp, replay_offset)), torque_data(_corrected(held, replay_offset))
+            rfit = fit_rigid_body(td)
+        refine = [h for h in refine if h not in failing]
+        kept_mech = [h for h in kept_mech if h not in failing]
+        extra_terms = [(_mech_attr(name), h.joint) for h in kept_mech for name, *_ in h.params]
+        base_extra = None
+        for h in kept_mech:
+            base_extra = stack_terms(base_extra, h.regressor(exp, td), h)
+        if base_extra:
+            calibrate_rigid_body(td, *base_extra)
+    # report the final values and errors, and put the torque balance's offsets into the replays
+    for h, vals, ses in finals:
+        if h.family == "pressure_sensor_offset":
+            mods = h_apply_offset(mods, h.chambers[0], float(vals[0]), robot.tables.n_chambers)
+        _report_final(findings, h, refine, vals, ses)
 
     # the calibration as the findings' joint fits left it: an effect the first calibration had
     # partly absorbed (a piston leak taken up by the valve areas) hands those scales back
@@ -369,6 +385,7 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         "diagnostics": {
             "pressure_noise_pa": sigma,
             "calibration_flags": flags,
+            "withdrawn_after_final_fit": withdrawn,
             "chamber_rms_heldout_pa": dict(zip([f"{a}.{c}" for a, c in robot.chamber_names], map(float, rms_c))),
             "chamber_rms_train_pa": dict(zip([f"{a}.{c}" for a, c in robot.chamber_names], map(float, rms_t))),
             "calibration_condition": cfit.condition,
@@ -385,9 +402,9 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         },
     }
     report["_replays"] = {"nominal": nominal_replay, "baseline": base_replay, "final": final_replay}
-    # the fitted model as a file (model.toml, identification.fitted_model): the final values
-    final_params = [{**f.params, **final_terms.get(id(f.scored.hyp), {})} if f.scored.hyp.kind == "mechanical"
-                    else f.params for f in findings]
+    # the fitted model as a file (model.toml, .fitted_model): the findings carry the final joint
+    # fit's values and errors (_report_final), the ones the final replay runs
+    final_params = [dict(f.params) for f in findings]
     report["_fitted"] = fitted_model(robot, report, final_params, _scale_stderr(final_cal, cal_se))
     return report
 
@@ -402,6 +419,70 @@ def _scale_stderr(scales: dict, stderr: dict) -> dict:
         out[n] = float(v * e) if n.split(".")[0] in ("supply_area_scale", "exhaust_area_scale",
                                                        "dead_volume_scale") else float(e)
     return out
+
+
+def passes_keep_rule(values, stderrs) -> bool:
+    """Every value >= MIN_T standard errors from 0, with a finite positive error (a parameter at
+    a bound has none: the gain came from what was refitted with it)."""
+    values, stderrs = np.asarray(values, float), np.asarray(stderrs, float)
+    return bool(np.all(np.isfinite(stderrs)) and np.all(stderrs > 0) and np.all(np.abs(values) >= MIN_T * stderrs))
+
+
+def final_terms(kept_mech, refine, values, stderrs, replay_offset) -> list:
+    """(hypothesis, its reported values, their standard errors) for each kept torque-balance
+    term of the final joint fit (``values``/``stderrs``: the extra terms' part, in kept order).
+    A pressure-sensor offset the replays found and the torque balance refined (``refine``) is
+    reported as the replays' value plus the refinement, with the refinement's error."""
+    out, k = [], 0
+    for h in kept_mech:
+        n = len(h.params)
+        vals, ses = np.array(values[k:k + n], float), np.array(stderrs[k:k + n], float)
+        k += n
+        if h in refine:
+            vals = vals + replay_offset[h.chambers[0]]
+        out.append((h, vals, ses))
+    return out
+
+
+def _owner(findings, h, refine):
+    """The finding a kept torque-balance term belongs to."""
+    for f in findings:
+        if f.scored.hyp is h or (h in refine and f.family == "pressure_sensor_offset" and f.where == h.where):
+            return f
+    return None
+
+
+def _report_final(findings, h, refine, vals, ses):
+    f = _owner(findings, h, refine)
+    if f is not None:
+        for (name, *_), v, e in zip(h.params, vals, ses):
+            f.params[name] = {"value": float(v), "stderr": float(e)}
+
+
+def _withdraw(findings, h, refine, vals, ses) -> list:
+    """Remove h's finding (it failed the keep rule at the final fit); its record for the report."""
+    f = _owner(findings, h, refine)
+    if f is None:
+        return []
+    findings.remove(f)
+    return [{"effect": f.family, "where": f.where,
+             "final_parameters": {name: {"value": float(v), "stderr": float(e)}
+                                  for (name, *_), v, e in zip(h.params, vals, ses)},
+             "why": f"fails the keep rule at the final joint fit: a parameter within {MIN_T:g} standard errors of 0"}]
+
+
+def _check_lengths(recordings, holdouts):
+    """Each fitted and held-out part needs data.MIN_ROWS rows; without held-out files the last
+    HOLDOUT_SHARE of each recording is held out, so each recording needs MIN_ROWS / HOLDOUT_SHARE:
+    say so up front, in the recording's own terms (not about a slice the user never made)."""
+    need = MIN_ROWS if holdouts else int(np.ceil(MIN_ROWS / HOLDOUT_SHARE))
+    for r in list(recordings) + list(holdouts):
+        if len(r) < need:
+            rate = r.rate_hz if len(r) > 1 else float("nan")
+            why = ("" if holdouts else f"; without --holdout files the last {100 * HOLDOUT_SHARE:.0f} % is held "
+                   f"out and each part needs {MIN_ROWS} rows")
+            raise RecordingError(f"{r.source}: {len(r)} rows ({r.time[-1] - r.time[0]:.3g} s) is too short for the doctor: "
+                                 f"it needs at least {need} rows ({need / rate:.3g} s at {rate:.4g} Hz){why}")
 
 
 def _residual_tests(robot, held, win_h, res_after, res_before) -> dict:
