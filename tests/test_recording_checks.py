@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from identification.doctor.valve_arm.data import prepare
-from identification.doctor import diagnose, final_terms, passes_keep_rule
+from identification.doctor.valve_arm.diagnose import diagnose, final_terms, passes_keep_rule
 from pneumatics.errors import RecordingError
 from pneumatics.recording import Recording, RecordingWarning
 from pneumatics.recording_checks import add_room_pressure, check_for_robot, check_pressures
