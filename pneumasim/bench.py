@@ -28,7 +28,7 @@ import numpy as np
 
 from pneumasim.bench_paths import bench_doctor_replay, bench_paths
 from pneumatics.io import OutputFolder, atomic_write_json
-from pneumatics.progress import Progress
+from workflow.progress import Progress
 from pneumatics.robot import load_robot
 from pneumatics.sim import Simulation
 

@@ -31,7 +31,7 @@ def _cmd_doctor(args):
     first, stages shown, the report swapped in whole."""
     from identification.doctor import diagnose, kind_of, summary, write
     from pneumatics.io import OutputFolder
-    from pneumatics.progress import Progress
+    from workflow.progress import Progress
 
     kind_of(args.model)  # an unknown model, or one without a doctor, fails here before any work
     folder = OutputFolder(args.out, inputs=[*args.recordings, *(args.holdout or [])])

@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from pneumatics.errors import PneumasimError, UnknownNameError  # noqa: E402
 from pneumatics.io import OutputFolder, atomic_save, atomic_write_json  # noqa: E402
-from pneumatics.progress import Progress  # noqa: E402
+from workflow.progress import Progress  # noqa: E402
 
 
 @dataclass

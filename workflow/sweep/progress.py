@@ -4,12 +4,12 @@ from __future__ import annotations
 import sys
 import time
 
-from pneumatics.progress import plain_line, progress_mode
+from workflow.progress import plain_line, progress_mode
 
 
 class ProgressBar:
     """Cases done of total, failed, retries, elapsed and time left: a rich progress bar on a
-    terminal, else one plain timestamped line on stderr per finished case (pneumatics.progress)."""
+    terminal, else one plain timestamped line on stderr per finished case (workflow.progress)."""
 
     def __init__(self, total, done, enabled, label):
         self.total, self.enabled, self.failed, self.retries = total, enabled and total > 0, 0, 0
