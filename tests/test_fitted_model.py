@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from identification.doctor.valve_arm.data import prepare, split
-from identification.fitted_model import heldout_replay, replay_mods
+from identification.doctor.valve_arm.fitted_model import heldout_replay, replay_mods
 from identification.doctor.valve_arm.hypotheses import mechanical_hypotheses, pneumatic_hypotheses
 from identification.doctor.valve_arm.pneumatic import PneumaticMods
 from identification.doctor.valve_arm.replay import MechMods, coupled_replay

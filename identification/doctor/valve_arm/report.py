@@ -46,7 +46,7 @@ def summary(report: dict) -> str:
 
 def write(report: dict, out: str | Path, robot=None, rerun: bool = True) -> Path:
     """report.json, report.md with its plots and (with ``robot``) doctor.rrd, model.toml and
-    fitted.xml (identification.fitted_model) in folder ``out``; returns report.json's path."""
+    fitted.xml (identification.doctor.valve_arm.fitted_model) in folder ``out``; returns report.json's path."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     replays = report.pop("_replays", None)
