@@ -3,7 +3,7 @@ of the actuator on its stopper under force control, each with one hidden effect 
 seed (family, place, magnitude; scenarios/_jetpipe_cases.py), +-3 % errors in the calibrated
 nominal parameters and sensor noise, plus null cases and cases with two effects of different
 families (concealed together), scored as scenarios/doctor_blind_benchmark.py scores arm2's.  The doctor
-(identification/jetpipe_doctor.py) sees only the CSV files; its answers are compared with
+(identification/doctor/jetpipe/diagnose.py) sees only the CSV files; its answers are compared with
 the truth.
 
 Metrics: effect_accuracy (effect cases whose named families are exactly the hidden ones, an

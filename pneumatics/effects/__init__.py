@@ -3,7 +3,7 @@
 Each effect is a small physical model with named, unit-carrying parameters.  The simulator
 switches them on through :class:`effect_set.EffectSet` (``Simulation(robot, effects=...)``),
 and the mismatch finder tests the same physics as hypotheses
-(``identification/hypotheses.py``), so whatever it finds can be simulated and kept.
+(``identification/doctor/valve_arm/hypotheses.py``), so whatever it finds can be simulated and kept.
 
 | family | physics | simulator | doctor |
 | --- | --- | --- | --- |
@@ -18,7 +18,7 @@ and the mismatch finder tests the same physics as hypotheses
 | supply_droop | supply pressure falls with the total supply flow | kernel | yes |
 | end_stop | a bumper inside the joint range: one-sided spring past the stop | MuJoCo soft joint limit | yes (stiffness >= 20 N m/rad; not concealable, so outside the blind benchmark) |
 | external_leak (bench) | laminar leak through the pores of a printed chamber (`external_leak.py`) | bench_chamber | bench doctor |
-| heat_transfer | gas temperature as a state, energy equation with h A (T_wall - T) (`heat_transfer.py`, R&H 2000 eq. 11) | per chamber, stepped in Python (~1 ms/step) | yes (T observed from the measured pressures, `identification/thermal.py`); bench doctor |
+| heat_transfer | gas temperature as a state, energy equation with h A (T_wall - T) (`heat_transfer.py`, R&H 2000 eq. 11) | per chamber, stepped in Python (~1 ms/step) | yes (T observed from the measured pressures, `identification/doctor/valve_arm/thermal.py`); bench doctor |
 | force_sensor_offset | load-cell offset; seal friction per direction and its growth with pressure (`seal_friction.py`) | bench_cylinder | bench doctor |
 | backlash | play between cylinder and link, dead zone (`backlash.py`, Nordin & Gutman 2002) | drive hinge + limited fixed tendon in MuJoCo | yes (the piston leads the link by gap/2 on the side it pushes) |
 """

@@ -2,7 +2,7 @@
 :class:`~pneumatics.effects.effect_set.EffectSet` entry: the one place that mapping is written.
 
 Each (family, form) the doctor can report names the parameters it carries and how they
-enter the EffectSet.  The doctor's hypotheses (``identification/hypotheses.py``) test the
+enter the EffectSet.  The doctor's hypotheses (``identification/doctor/valve_arm/hypotheses.py``) test the
 same physics the simulator runs (``effects/__init__.py``'s table), so most map exactly.
 Two do not:
 

@@ -1,5 +1,5 @@
 """Physical effects the jet-pipe simulator can switch on (DESIGN.md effect vocabulary): the
-mismatch finder's concealed truths and its hypotheses (identification/jetpipe_doctor.py).
+mismatch finder's concealed truths and its hypotheses (identification/doctor/jetpipe/diagnose.py).
 
 The bench of paper 000 (Fig. 8): piston on the rod stopper, force sensor on the rod, chamber
 pressure transducers, coil current and a jet-position sensor (PSD).  Each effect is a small

@@ -16,7 +16,7 @@ calibrated model's replay; issue 4 step 4):
 A per-sample weight (the squared-residual reduction a finding buys, or the residual energy
 above the noise floor) is binned by each feature into quantile bins; the (feature, bin) whose
 share of the weight most exceeds its share of the samples (the lift, as in
-identification/regimes.py for arm2) is where it concentrates, when that lift is at least
+identification.base.statistics.locate_regime for arm2) is where it concentrates, when that lift is at least
 ``MIN_LIFT``; otherwise it is spread "throughout".
 """
 from __future__ import annotations
