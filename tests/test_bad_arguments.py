@@ -50,7 +50,7 @@ def test_reset_pressure_must_be_absolute_finite_and_below_twice_the_supply(sim, 
 
 
 def test_reset_unknown_keyframe_lists_the_valid_ones(sim):
-    with pytest.raises(UnknownNameError, match="unknown keyframe 'hmoe'; valid: home"):
+    with pytest.raises(UnknownNameError, match="unknown keyframe 'hmoe'; did you mean 'home'\\? valid: home"):
         sim.reset(keyframe="hmoe")
 
 

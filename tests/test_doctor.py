@@ -94,7 +94,7 @@ def test_doctor_cli_bad_input_is_one_line_and_keeps_old_reports(tmp_path):
     short.to_csv(tmp_path / "short.csv")
     nocmd = Recording(rec.time, {k: v for k, v in rec.columns.items() if not k.startswith("u_b")})
     nocmd.to_csv(tmp_path / "nocmd.csv")
-    cases = {"short.csv": "too short to diagnose", "nocmd.csv": "missing command column(s) u_b.shoulder"}
+    cases = {"short.csv": "too short for the doctor", "nocmd.csv": "missing command column(s) u_b.shoulder"}
     for name, msg in cases.items():
         r = subprocess.run([sys.executable, "-m", "pneumasim.cli", "doctor", "--model", "arm2", str(tmp_path / name),
                             "--out", str(out)], capture_output=True, text=True)

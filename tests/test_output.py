@@ -322,7 +322,7 @@ def test_misspelt_names_get_a_did_you_mean():
 
     import numpy as np
 
-    for call, hint in ((lambda: load_scenario("arm2_step_respons"), "did you mean 'arm2_step_response'?"),
+    for call, hint in ((lambda: load_scenario("arm2_step_respons"), "did you mean 'arm2_step_response'"),
                        (lambda: load_robot("humanoid83"), "did you mean 'humanoid38'?"),
                        (lambda: load_map("zillen_frction"), "did you mean 'zillen_friction'?"),
                        (lambda: draw_effect("valve_hysteresiss", np.random.default_rng(0)),
