@@ -121,7 +121,7 @@ def load_map(path_or_name: str | Path) -> ImportMap:
         elif path.suffix or len(path.parts) > 1:  # a file name: the file is missing
             raise ConfigError(f"{path}: mapping file not found (shipped maps: {', '.join(shipped)})")
         else:  # a bare name: one of the shipped maps, perhaps misspelt
-            raise UnknownNameError("import map (a mapping file or the name of a shipped one)", str(path), shipped)
+            raise UnknownNameError("import map", str(path), shipped)
     doc = read_toml(path, "mapping file")
     where = str(path)
     unknown = set(doc) - {"source", "meta", "column"}
@@ -292,6 +292,8 @@ def import_to_csv(src, mapping, out, meta: dict | None = None) -> Recording:
         raise OutputError(f"--out {out}: a recording is a CSV file and its metadata goes to a sidecar "
                           f"of the same name with .json; give e.g. --out {out.with_suffix('.csv')}")
     side = sidecar_path(out)
+    if side.resolve() == Path(src).expanduser().resolve():
+        raise OutputError(f"--out {out}: its sidecar {side} would overwrite the input {src}; give --out another name")
     with OutputFiles(out, side, inputs=[src]) as files:
         rec = import_file(src, mapping, meta)
         rec.to_csv(files.file(out), sidecar=files.file(side))

@@ -119,6 +119,8 @@ def check_output_folder(target: str | Path, inputs=(), option: str = "--out") ->
     target = Path(target).expanduser()
     if str(target).strip() == "":
         raise OutputError(f"{option}: empty path; expected a folder")
+    if target.is_symlink():  # swap at the folder the link names, and keep the link
+        target = target.resolve()
     where = target.resolve()
     if target.exists() and not target.is_dir():
         raise OutputError(f"{option} {target}: is a file; expected a folder (it is replaced whole by the results)")

@@ -149,6 +149,24 @@ def test_doctor_refuses_an_unwritable_out_before_reading_anything(tmp_path):
                                 "(it is replaced whole by the results)")
 
 
+def test_bench_checks_out_before_benchmarking(tmp_path):
+    (tmp_path / "afile").write_text("x")
+    t0 = time.perf_counter()
+    r = _cli(["bench", "--quick", "--out", tmp_path / "afile"], tmp_path)
+    assert r.returncode == 1 and "--out" in r.stderr and "is a file; expected a folder" in r.stderr
+    assert time.perf_counter() - t0 < 60  # no benchmark ran (the quick one takes minutes)
+
+
+def test_a_symlinked_out_is_replaced_where_it_points(tmp_path):
+    with OutputFolder(tmp_path / "real") as out:
+        (out.path / "metrics.json").write_text("1")
+    (tmp_path / "link").symlink_to(tmp_path / "real")
+    with OutputFolder(tmp_path / "link") as out:
+        (out.path / "metrics.json").write_text("2")
+    assert (tmp_path / "link").is_symlink() and (tmp_path / "link" / "metrics.json").read_text() == "2"
+    assert _leftovers(tmp_path) == []
+
+
 def test_doctor_refuses_a_read_only_folder(tmp_path):
     """A read-only parent and a read-only --out (chmod; root may write there, so as root a
     place even root cannot write: sysfs)."""
@@ -266,7 +284,8 @@ def test_import_refuses_its_source_and_a_json_out_and_writes_the_pair(tmp_path):
     log = tmp_path / "log.json"  # a log whose name the sidecar of log.csv would take
     log.write_bytes(src.read_bytes())
     r = _cli(["import", log, "--map", "zillen_friction", "--out", tmp_path / "log.csv"], tmp_path)
-    assert r.returncode == 1 and "is the input" in r.stderr and not (tmp_path / "log.csv").exists()
+    assert r.returncode == 1 and not (tmp_path / "log.csv").exists()
+    assert f"--out {tmp_path / 'log.csv'}: its sidecar {log} would overwrite the input {log}" in r.stderr
     r = _cli([*base, "--out", tmp_path / "rec.csv"], tmp_path, umask=0o022)
     assert r.returncode == 0, r.stderr
     assert json.loads((tmp_path / "rec.json").read_text())["model"] == "bench_cylinder"
