@@ -114,6 +114,23 @@ def test_files_follow_the_umask(tmp_path):
     assert (tmp_path / "out").stat().st_mode & 0o777 == 0o750  # was 0700 (mkdtemp)
 
 
+def test_progress_is_plain_timestamped_lines_without_a_terminal(capsys, monkeypatch):
+    from pneumatics.progress import Progress, progress_mode
+
+    monkeypatch.delenv("PNEUMASIM_PROGRESS", raising=False)
+    assert progress_mode() == "plain"  # pytest captures stderr: not a terminal
+    with Progress("doctor humanoid38") as p:
+        p.say("calibrating chambers")
+        p("scoring hypotheses")  # also a progress(msg) callback
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 2 and all(TIMESTAMPED.match(line) for line in lines)
+    assert lines[1].endswith("doctor humanoid38: scoring hypotheses")
+    monkeypatch.setenv("PNEUMASIM_PROGRESS", "none")
+    with Progress("doctor") as p:
+        p.say("quiet")
+    assert capsys.readouterr().err == ""
+
+
 # ---------------------------------------------------------------- the commands
 
 def _bench_recording(folder: Path) -> Path:
