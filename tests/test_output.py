@@ -60,6 +60,16 @@ def test_a_finished_run_replaces_the_folder_whole_without_stale_files(tmp_path):
     assert _leftovers(tmp_path) == []
 
 
+def test_paths_a_run_stores_name_the_final_folder(tmp_path):
+    target = tmp_path / "demo"
+    with OutputFolder(target) as out:
+        rec = out.path / "doctor_case" / "mystery.csv"
+        rec.parent.mkdir()
+        rec.write_text("time\n0\n")
+        atomic_write_text(out.path / "report.json", json.dumps({"source": str(rec)}))
+    assert json.loads((target / "report.json").read_text())["source"] == str(target / "doctor_case" / "mystery.csv")
+
+
 def test_a_failed_run_leaves_the_previous_results_and_no_staging_folder(tmp_path):
     target = tmp_path / "report"
     with OutputFolder(target) as out:
