@@ -18,10 +18,12 @@ class OutputError(PneumasimError):
     """An output path that cannot or must not be written (checked before any work starts)."""
 
 
-def close_matches(name: str, valid, n: int = 3) -> list[str]:
-    """The valid names nearest ``name`` (difflib's ratio >= 0.6, case ignored), best first."""
+def close_matches(name: str, valid, n: int = 3, cutoff: float = 0.7) -> list[str]:
+    """The valid names nearest ``name`` (difflib's ratio >= ``cutoff``, case ignored), best first.
+    0.7 keeps one-letter slips in short names ('arm3' -> 'arm2': 0.75) and drops look-alikes
+    ('arm3_nothing' -> 'arm2_tracking': 0.64)."""
     lowered = {str(v).lower(): str(v) for v in valid}
-    return [lowered[m] for m in difflib.get_close_matches(str(name).lower(), list(lowered), n=n, cutoff=0.6)]
+    return [lowered[m] for m in difflib.get_close_matches(str(name).lower(), list(lowered), n=n, cutoff=cutoff)]
 
 
 class UnknownNameError(PneumasimError, KeyError):

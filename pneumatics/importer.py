@@ -125,7 +125,7 @@ def load_map(path_or_name: str | Path) -> ImportMap:
         elif path.suffix or len(path.parts) > 1:  # a file name: the file is missing
             raise ConfigError(f"{path}: mapping file not found (shipped maps: {', '.join(shipped)})")
         else:  # a bare name: one of the shipped maps, perhaps misspelt
-            raise UnknownNameError("import map (a mapping file or the name of a shipped one)", str(path), shipped)
+            raise UnknownNameError("import map", str(path), shipped)
     doc = read_toml(path, "mapping file")
     where = str(path)
     unknown = set(doc) - {"source", "meta", "column", "ros"}
@@ -309,6 +309,8 @@ def import_recording(src, mapping, out, meta: dict | None = None) -> Recording:
         raise OutputError(f"--out {out}: a recording is written as .csv (with a .json sidecar) or .parquet")
     read = read_bag if is_ros_bag(src) else import_file
     targets = (out, sidecar_path(out)) if out.suffix.lower() == ".csv" else (out,)
+    if len(targets) > 1 and targets[1].resolve() == Path(src).expanduser().resolve():
+        raise OutputError(f"--out {out}: its sidecar {targets[1]} would overwrite the input {src}; give --out another name")
     with OutputFiles(*targets, inputs=[src]) as files:
         rec = read(src, mapping, meta)
         if out.suffix.lower() == ".csv":

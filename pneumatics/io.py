@@ -66,7 +66,8 @@ def atomic_write_text(path: str | Path, text: str):
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        os.fchmod(fd, file_mode())
+        if hasattr(os, "fchmod"):  # POSIX
+            os.fchmod(fd, file_mode())
         with os.fdopen(fd, "w") as f:
             f.write(text)
         os.replace(tmp, path)
@@ -119,6 +120,8 @@ def check_output_folder(target: str | Path, inputs=(), option: str = "--out") ->
     target = Path(target).expanduser()
     if str(target).strip() == "":
         raise OutputError(f"{option}: empty path; expected a folder")
+    if target.is_symlink():  # swap at the folder the link names, and keep the link
+        target = target.resolve()
     where = target.resolve()
     if target.exists() and not target.is_dir():
         raise OutputError(f"{option} {target}: is a file; expected a folder (it is replaced whole by the results)")
@@ -225,6 +228,29 @@ def remove_abandoned(target: Path):
             p.unlink(missing_ok=True)
 
 
+#: text outputs that may name their own files (a report's recording paths, a case's truth)
+TEXT_SUFFIXES = (".json", ".md", ".txt", ".toml")
+_RELOCATE_MAX_BYTES = 50_000_000
+
+
+def relocate_paths(staging: Path, target: Path):
+    """Paths a run wrote into its text outputs name the staging folder; make them name the
+    folder the outputs end up in (``.x.partial-<pid>-<random>`` occurs nowhere else)."""
+    pairs = [(str(staging), str(target)), (str(staging.resolve()), str(target.resolve()))]
+    for f in staging.rglob("*"):
+        if f.suffix not in TEXT_SUFFIXES or not f.is_file() or f.stat().st_size > _RELOCATE_MAX_BYTES:
+            continue
+        try:
+            text = f.read_text()
+        except (UnicodeDecodeError, OSError):
+            continue
+        if staging.name not in text:
+            continue
+        for old, new in pairs:
+            text = text.replace(old, new)
+        atomic_write_text(f, text)
+
+
 def _link_tree(src: Path, dst: Path):
     """Hard-link copy of ``src`` into ``dst`` (files are shared until replaced: every writer
     here replaces a file by renaming a new one over it, never writes into it)."""
@@ -300,6 +326,8 @@ class OutputFolder:
 
     def commit(self):
         """Swap the staging folder in and move the extra files into place."""
+        if not self.resumable:  # a resumable run's case files keep theirs: they identify the cases
+            relocate_paths(self.path, self.target)
         (self.path / MARKER).write_text("pneumasim output: replaced whole by the next run into this folder\n")
         os.chmod(self.path / MARKER, file_mode())
         mode = (self.target.stat().st_mode & 0o7777) if self.target.is_dir() else folder_mode()

@@ -12,7 +12,9 @@ import importlib
 import json
 import math
 import pkgutil
+import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -187,6 +189,8 @@ def main(module_name: str, argv=None):
     parser = argparse.ArgumentParser(prog=f"python -m scenarios.{name}", description=module.SUMMARY)
     add_run_options(parser)
     args = parser.parse_args(argv)
+    if threading.current_thread() is threading.main_thread():  # a scheduler's stop cleans up as Ctrl-C
+        signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
         run_scenario(name, args.out, args.fast, args.rerun, args.spawn, fitted=args.fitted)
     except PneumasimError as e:

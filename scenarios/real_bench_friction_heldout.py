@@ -4,7 +4,7 @@ scenarios/real_bench_doctor.py and docs/real_bench.md).
 
 For every seal (Circle, O-ring257, X-ring257) and every held-out pressure (1, 3, 5, 7 bar
 gauge): fit the pressure-growing friction law on the other three files
-(:func:`identification.friction_heldout.predict_held_out`), predict the held-out file's
+(:func:`identification.doctor.bench.friction_heldout.predict_held_out`), predict the held-out file's
 force trace, and compare it with the measurement (NRMSE), with p_g A alone, and with the law
 fitted on that file itself.  1 and 7 bar are extrapolations, 3 and 5 bar interpolations.
 The thesis's own numbers -- friction = F - p A averaged per direction -- are predicted too.

@@ -60,6 +60,16 @@ def test_a_finished_run_replaces_the_folder_whole_without_stale_files(tmp_path):
     assert _leftovers(tmp_path) == []
 
 
+def test_paths_a_run_stores_name_the_final_folder(tmp_path):
+    target = tmp_path / "demo"
+    with OutputFolder(target) as out:
+        rec = out.path / "doctor_case" / "mystery.csv"
+        rec.parent.mkdir()
+        rec.write_text("time\n0\n")
+        atomic_write_text(out.path / "report.json", json.dumps({"source": str(rec)}))
+    assert json.loads((target / "report.json").read_text())["source"] == str(target / "doctor_case" / "mystery.csv")
+
+
 def test_a_failed_run_leaves_the_previous_results_and_no_staging_folder(tmp_path):
     target = tmp_path / "report"
     with OutputFolder(target) as out:
@@ -114,6 +124,23 @@ def test_files_follow_the_umask(tmp_path):
     assert (tmp_path / "out").stat().st_mode & 0o777 == 0o750  # was 0700 (mkdtemp)
 
 
+def test_progress_is_plain_timestamped_lines_without_a_terminal(capsys, monkeypatch):
+    from workflow.progress import Progress, progress_mode
+
+    monkeypatch.delenv("PNEUMASIM_PROGRESS", raising=False)
+    assert progress_mode() == "plain"  # pytest captures stderr: not a terminal
+    with Progress("doctor humanoid38") as p:
+        p.say("calibrating chambers")
+        p("scoring hypotheses")  # also a progress(msg) callback
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 2 and all(TIMESTAMPED.match(line) for line in lines)
+    assert lines[1].endswith("doctor humanoid38: scoring hypotheses")
+    monkeypatch.setenv("PNEUMASIM_PROGRESS", "none")
+    with Progress("doctor") as p:
+        p.say("quiet")
+    assert capsys.readouterr().err == ""
+
+
 # ---------------------------------------------------------------- the commands
 
 def _bench_recording(folder: Path) -> Path:
@@ -147,6 +174,24 @@ def test_doctor_refuses_an_unwritable_out_before_reading_anything(tmp_path):
     assert r.returncode == 1 and "Traceback" not in r.stderr
     assert r.stderr.strip() == (f"pneumasim: error: --out {tmp_path / 'afile'}: is a file; expected a folder "
                                 "(it is replaced whole by the results)")
+
+
+def test_bench_checks_out_before_benchmarking(tmp_path):
+    (tmp_path / "afile").write_text("x")
+    t0 = time.perf_counter()
+    r = _cli(["bench", "--quick", "--out", tmp_path / "afile"], tmp_path)
+    assert r.returncode == 1 and "--out" in r.stderr and "is a file; expected a folder" in r.stderr
+    assert time.perf_counter() - t0 < 60  # no benchmark ran (the quick one takes minutes)
+
+
+def test_a_symlinked_out_is_replaced_where_it_points(tmp_path):
+    with OutputFolder(tmp_path / "real") as out:
+        (out.path / "metrics.json").write_text("1")
+    (tmp_path / "link").symlink_to(tmp_path / "real")
+    with OutputFolder(tmp_path / "link") as out:
+        (out.path / "metrics.json").write_text("2")
+    assert (tmp_path / "link").is_symlink() and (tmp_path / "link" / "metrics.json").read_text() == "2"
+    assert _leftovers(tmp_path) == []
 
 
 def test_doctor_refuses_a_read_only_folder(tmp_path):
@@ -266,7 +311,8 @@ def test_import_refuses_its_source_and_a_json_out_and_writes_the_pair(tmp_path):
     log = tmp_path / "log.json"  # a log whose name the sidecar of log.csv would take
     log.write_bytes(src.read_bytes())
     r = _cli(["import", log, "--map", "zillen_friction", "--out", tmp_path / "log.csv"], tmp_path)
-    assert r.returncode == 1 and "is the input" in r.stderr and not (tmp_path / "log.csv").exists()
+    assert r.returncode == 1 and not (tmp_path / "log.csv").exists()
+    assert f"--out {tmp_path / 'log.csv'}: its sidecar {log} would overwrite the input {log}" in r.stderr
     r = _cli([*base, "--out", tmp_path / "rec.csv"], tmp_path, umask=0o022)
     assert r.returncode == 0, r.stderr
     assert json.loads((tmp_path / "rec.json").read_text())["model"] == "bench_cylinder"

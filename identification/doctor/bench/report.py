@@ -1,6 +1,7 @@
 """Write a bench doctor report: ``report.json`` (DESIGN.md contract), ``report.md`` and PNGs.
 
-All files are written atomically (pneumatics.io); plots show the measured channel against
+All files are written atomically (pneumatics.io), into the staging folder ``pneumasim doctor``
+swaps in whole at the end (OutputFolder); plots show the measured channel against
 every hypothesis on the fitted and the held-out part, and the residual before and after.
 """
 from __future__ import annotations

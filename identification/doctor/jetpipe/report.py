@@ -1,5 +1,5 @@
 """Write a jet-pipe doctor report (DESIGN.md "The mismatch finder"), every file atomically
-(pneumatics.io): ``report.json``; ``heldout_fit.png`` (measured vs the calibrated model before
+(pneumatics.io; ``pneumasim doctor`` swaps the whole folder in at the end): ``report.json``; ``heldout_fit.png`` (measured vs the calibrated model before
 and after the findings, in the held-out window the findings changed most); ``regimes.png``
 (the noise-weighted squared residual vs the regime feature where each finding's improvement
 or each unexplained residual concentrates, before and after); ``doctor.rrd`` (Rerun: measured,

@@ -1,6 +1,8 @@
 """The doctor's outputs: report.json (DESIGN.md), report.md with plots, an .rrd with the
 measured, nominal and corrected traces, and a summary a person reads in ten seconds.
-All files are written atomically: an interrupted run leaves earlier reports intact."""
+Each file is written atomically; ``pneumasim doctor`` writes them into a staging folder swapped
+in whole at the end (pneumatics.io.OutputFolder), so an interrupted run leaves the earlier
+report intact and a rerun leaves no earlier finding's PNG beside the new report."""
 from __future__ import annotations
 
 import json
