@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from identification.doctor.valve_arm.data import prepare
-from identification.doctor.valve_arm.diagnose import diagnose, final_terms, passes_keep_rule
+from identification.doctor.valve_arm.diagnose import diagnose
+from identification.doctor.valve_arm.final_fit import final_terms, passes_keep_rule
 from pneumatics.errors import RecordingError
 from pneumatics.recording import Recording, RecordingWarning
 from pneumatics.recording_checks import add_room_pressure, check_for_robot, check_pressures
@@ -108,7 +109,8 @@ def test_sidecar_room_pressure_is_used_by_gauge(tmp_path):
     (tmp_path / "g.csv").write_text("time,p_a.x\n0,0\n0.01,2e5\n")
     (tmp_path / "g.json").write_text(json.dumps({"room_pa": 95000.0}))
     args = build_parser().parse_args(["doctor", "--model", "arm2", str(tmp_path / "g.csv"), "--out", "o", "--gauge"])
-    (recs, _) = _read_recordings(args, 101325.0)
+    say = type("Say", (), {"say": lambda self, msg: None})()
+    (recs, _) = _read_recordings(args, say)
     assert np.allclose(recs[0]["p_a.x"], [95000.0, 295000.0]) and recs[0].meta["gauge_room_pa"] == 95000.0
 
 

@@ -1,0 +1,140 @@
+"""The final joint fit: every kept torque term fitted again with the calibration, the keep rule
+applied to the numbers reported, and the calibration as the findings' fits left it."""
+from __future__ import annotations
+
+import numpy as np
+
+from .calibrate import chamber_names as calibration_names
+from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
+from .rules import MIN_T, DoctorRun
+from .screening import stack_terms
+from .search import apply_offset, corrected, mech_attr
+
+
+def final_joint_fit(run: DoctorRun) -> None:
+    """The final joint fit moves each kept term's value and error: the keep rule (>= MIN_T
+    standard errors) is applied to those final numbers, the ones reported; a term that fails it
+    is withdrawn with its finding and the rest refitted without it, until all pass.  Then the
+    final values go into the findings and the torque balance's offsets into the replays."""
+    replay_offset = (np.zeros(run.n_chambers) if run.mods.sensor_offset_pa is None
+                     else run.mods.sensor_offset_pa.copy())
+    while True:
+        run.final_rfit = fit_rigid_body(run.td, *run.base_extra) if run.base_extra else run.rfit
+        n_terms = sum(len(h.params) for h in run.kept_mech)
+        n = len(run.final_rfit.values)
+        run.finals = final_terms(run.kept_mech, run.refine, run.final_rfit.values[n - n_terms:],
+                                 run.final_rfit.stderr[n - n_terms:], replay_offset)
+        failing = [h for h, vals, ses in run.finals if not passes_keep_rule(vals, ses)]
+        if not failing:
+            break
+        _withdraw_failing(run, failing, replay_offset)
+    for h, vals, ses in run.finals:
+        if h.family == "pressure_sensor_offset":
+            run.mods = apply_offset(run.mods, h.chambers[0], float(vals[0]), run.n_chambers)
+        _report_final(run.findings, h, run.refine, vals, ses)
+
+
+def _withdraw_failing(run: DoctorRun, failing: list, replay_offset: np.ndarray) -> None:
+    """Withdraw the findings of the ``failing`` terms and set the torque balance up without them."""
+    for h, vals, ses in run.finals:
+        if h in failing:
+            run.withdrawn += _withdraw(run.findings, h, run.refine, vals, ses)
+    if any(h in run.refine for h in failing):  # the torque data were corrected by that offset
+        for h in failing:
+            if h in run.refine:
+                replay_offset[h.chambers[0]] = 0.0
+        run.mods = run.mods.copy(sensor_offset_pa=replay_offset.copy())
+        run.td = torque_data(corrected(run.exp, replay_offset))
+        run.td_h = torque_data(corrected(run.held, replay_offset))
+        run.rfit = fit_rigid_body(run.td)
+    run.refine = [h for h in run.refine if h not in failing]
+    run.kept_mech = [h for h in run.kept_mech if h not in failing]
+    run.extra_terms = [(mech_attr(name), h.joint) for h in run.kept_mech for name, *_ in h.params]
+    run.base_extra = None
+    for h in run.kept_mech:
+        run.base_extra = stack_terms(run.base_extra, h.regressor(run.exp, run.td), h)
+    if run.base_extra:
+        calibrate_rigid_body(run.td, *run.base_extra)
+
+
+def final_calibration(run: DoctorRun) -> tuple[dict, dict, list]:
+    """(scales, their standard errors, the names of those that moved): the calibration as the
+    findings' joint fits left it — an effect the first calibration had partly absorbed (a piston
+    leak taken up by the valve areas) hands those scales back.  "Moved": more than 10 % and more
+    than two standard errors (the elbow armature, 0.25 % of the elbow's inertia, can wander 18 %
+    within its error bar); log scales for the chambers, the final calibration's errors for the
+    inertias the effect fits held."""
+    mods, rfit, final_rfit, cfit = run.mods, run.rfit, run.final_rfit, run.cfit
+    names = calibration_names(run.robot)
+    final_cal = dict(zip(names, map(float, np.concatenate([mods.supply_scale, mods.exhaust_scale,
+                                                           mods.dead_volume_scale]))))
+    final_cal.update({n: float(1 + v) for n, v in zip(rfit.names, final_rfit.values[:len(rfit.names)])})
+    cal_se = dict(zip(cfit.names, cfit.stderr))
+    held_se = dict(zip(run.td.calibration.names, run.td.calibration.stderr))
+    cal_se.update({n: e if np.isfinite(e) else held_se.get(n, 0.0)
+                   for n, e in zip(rfit.names, final_rfit.stderr[:len(rfit.names)])})
+    flags = [n for n, v in final_cal.items()
+             if abs(np.log(v)) > np.log(1.1) and not abs(np.log(v)) <= 2 * np.nan_to_num(cal_se.get(n, 0.0))]
+    return final_cal, cal_se, flags
+
+
+def scale_stderr(scales: dict, stderr: dict) -> dict:
+    """Standard errors of the calibration scales: the chambers' were fitted as log scales
+    (calibrate.chamber_params), so theirs is the scale times the log's; the rigid body's
+    directly; NaN where the fit held a scale (no error bar)."""
+    out = {}
+    for n, v in scales.items():
+        e = stderr.get(n, np.nan)
+        out[n] = float(v * e) if n.split(".")[0] in ("supply_area_scale", "exhaust_area_scale",
+                                                       "dead_volume_scale") else float(e)
+    return out
+
+
+def passes_keep_rule(values, stderrs) -> bool:
+    """Every value >= MIN_T standard errors from 0, with a finite positive error (a parameter at
+    a bound has none: the gain came from what was refitted with it)."""
+    values, stderrs = np.asarray(values, float), np.asarray(stderrs, float)
+    return bool(np.all(np.isfinite(stderrs)) and np.all(stderrs > 0) and np.all(np.abs(values) >= MIN_T * stderrs))
+
+
+def final_terms(kept_mech, refine, values, stderrs, replay_offset) -> list:
+    """(hypothesis, its reported values, their standard errors) for each kept torque-balance
+    term of the final joint fit (``values``/``stderrs``: the extra terms' part, in kept order).
+    A pressure-sensor offset the replays found and the torque balance refined (``refine``) is
+    reported as the replays' value plus the refinement, with the refinement's error."""
+    out, k = [], 0
+    for h in kept_mech:
+        n = len(h.params)
+        vals, ses = np.array(values[k:k + n], float), np.array(stderrs[k:k + n], float)
+        k += n
+        if h in refine:
+            vals = vals + replay_offset[h.chambers[0]]
+        out.append((h, vals, ses))
+    return out
+
+
+def _owner(findings, h, refine):
+    """The finding a kept torque-balance term belongs to."""
+    for f in findings:
+        if f.scored.hyp is h or (h in refine and f.family == "pressure_sensor_offset" and f.where == h.where):
+            return f
+    return None
+
+
+def _report_final(findings, h, refine, vals, ses):
+    f = _owner(findings, h, refine)
+    if f is not None:
+        for (name, *_), v, e in zip(h.params, vals, ses):
+            f.params[name] = {"value": float(v), "stderr": float(e)}
+
+
+def _withdraw(findings, h, refine, vals, ses) -> list:
+    """Remove h's finding (it failed the keep rule at the final fit); its record for the report."""
+    f = _owner(findings, h, refine)
+    if f is None:
+        return []
+    findings.remove(f)
+    return [{"effect": f.family, "where": f.where,
+             "final_parameters": {name: {"value": float(v), "stderr": float(e)}
+                                  for (name, *_), v, e in zip(h.params, vals, ses)},
+             "why": f"fails the keep rule at the final joint fit: a parameter within {MIN_T:g} standard errors of 0"}]
