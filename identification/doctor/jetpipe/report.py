@@ -16,7 +16,8 @@ from pneumatics.io import atomic_save, atomic_write_json, atomic_write_text
 
 from identification.base.reporting import jsonable, pyplot, save_figure
 
-from .diagnose import CALIBRATION, calibrated_cfg, fitted_effects
+from .diagnose import fitted_effects
+from .hypotheses import CALIBRATION, calibrated_cfg
 from .regimes import FEATURES
 from .replay import measured, replay
 
