@@ -299,3 +299,22 @@ def test_wrong_pairings_of_file_and_map_are_explained(tmp_path):
         read_recording(tmp_path / "junk.mcap", a_map(tmp_path))
     with pytest.raises(RecordingError, match="gone.bag: ROS bag not found"):
         read_recording(tmp_path / "gone.bag", a_map(tmp_path))
+
+
+def test_pneumasim_import_turns_a_bag_into_csv_or_parquet(tmp_path, capsys):
+    from pneumasim.cli import main as cli_main
+
+    rec = with_reference(arm2_like(n=120))
+    bag = write_recording(rec, tmp_path / "lab.db3", "ros_arm2")
+    for out in ("run.parquet", "run.csv"):
+        cli_main(["import", str(bag), "--map", "ros_arm2", "--out", str(tmp_path / out), "--meta", "operator_note=x"])
+        back = read_recording(tmp_path / out)
+        np.testing.assert_allclose(back["p_b.elbow"], rec["p_b.elbow"], rtol=1e-6)
+        assert back.meta["model"] == "arm2" and back.meta["operator_note"] == "x"
+        assert back.meta["imported_from"] == str(bag)
+    assert "120 rows" in capsys.readouterr().out
+    with pytest.raises(SystemExit, match="pneumasim: error: .*ros_arm2.toml: no \\[\\[column\\]\\] entries: this map "
+                                         "reads ROS bags"):
+        cli_main(["import", str(tmp_path / "run.csv"), "--map", "ros_arm2", "--out", str(tmp_path / "x.csv")])
+    with pytest.raises(SystemExit, match="pneumasim: error: .*lab: a ROS bag needs an import map"):
+        cli_main(["doctor", "--model", "arm2", str(bag), "--out", str(tmp_path / "doc")])
