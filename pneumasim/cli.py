@@ -39,7 +39,7 @@ def _cmd_doctor(args):
 
     console = Console(stderr=True)
     robot = load_robot(args.model)
-    recs, holds = _read_recordings(args)
+    recs, holds = recordings_from_args(args)
     with console.status("doctor: starting") as status:
         report = diagnose(robot, recs, holds, progress=lambda msg: status.update(f"doctor: {msg}"))
     write(report, args.out, robot)
@@ -50,7 +50,7 @@ def _cmd_doctor(args):
 def _cmd_bench_doctor(args):
     from identification.bench_doctor import diagnose_bench
     from identification.bench_report import summary, write
-    recs, holds = _read_recordings(args)
+    recs, holds = recordings_from_args(args)
     report = diagnose_bench(args.model, recs, holds)
     write(report, args.out)
     print(summary(report))
@@ -60,14 +60,14 @@ def _cmd_bench_doctor(args):
 def _cmd_jetpipe_doctor(args):
     from identification.jetpipe_doctor import diagnose_jetpipe
     from identification.jetpipe_report import summary, write
-    recs, holds = _read_recordings(args)
+    recs, holds = recordings_from_args(args)
     report = diagnose_jetpipe(args.model, recs, holds, progress=lambda msg: print(f"doctor: {msg}", file=sys.stderr))
     write(report, args.out)
     print(summary(report))
     print(f"report: {args.out}/report.md, {args.out}/report.json, {args.out}/doctor.rrd")
 
 
-def _read_recordings(args):
+def recordings_from_args(args):
     """The doctor's recordings and held-out recordings, each by its suffix (CSV, Parquet, or a
     ROS bag read through --map)."""
     from pneumatics.formats.by_suffix import read_recording

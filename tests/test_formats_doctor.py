@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from identification.data import prepare
-from pneumasim.cli import _read_recordings, build_parser
+from pneumasim.cli import build_parser, recordings_from_args
 from pneumasim.cli import main as cli_main
 from pneumatics.formats.by_suffix import read_recording, write_recording
 from pneumatics.recording import read_csv
@@ -44,7 +44,7 @@ def doctor_args(files, out):
 
 def test_the_doctor_reads_the_same_recordings_from_csv_parquet_and_mcap(tmp_path, arm2):
     files = three_formats(tmp_path)
-    read = {fmt: _read_recordings(build_parser().parse_args(doctor_args(f, tmp_path / fmt)))
+    read = {fmt: recordings_from_args(build_parser().parse_args(doctor_args(f, tmp_path / fmt)))
             for fmt, f in files.items()}
     for fmt in ("parquet", "mcap"):
         for rec, ref in zip([*read[fmt][0], *read[fmt][1]], [*read["csv"][0], *read["csv"][1]]):
@@ -65,7 +65,7 @@ def test_a_folder_bag_is_read_by_the_doctor_with_its_map(tmp_path):
     files = three_formats(tmp_path)
     folder = files["mcap"][0].parent
     args = build_parser().parse_args(doctor_args([folder, files["csv"][1]], tmp_path / "x"))
-    recs, holds = _read_recordings(args)
+    recs, holds = recordings_from_args(args)
     np.testing.assert_array_equal(recs[0]["p_a.elbow"], read_recording(files["csv"][0])["p_a.elbow"])
 
 
