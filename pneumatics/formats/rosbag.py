@@ -63,12 +63,10 @@ def read_bag(path: str | Path, mapping: ImportMap | str | Path, meta: dict | Non
         s = samples[entry.topic]
         if isinstance(entry, CommandTopic):
             values = resample.zero_order_hold(s.stamps_ns, s.values, grid_ns)
-        elif rmap.sensors == "period_mean":
-            values = resample.period_mean(s.stamps_ns, s.values, grid_ns, period_s)
         else:
-            values = resample.linear(s.stamps_ns, s.values, grid_ns)
-        if not isinstance(entry, CommandTopic):
             _warn_if_sparse(path, entry, s, rmap.rate_hz)
+            values = (resample.period_mean(s.stamps_ns, s.values, grid_ns, period_s) if rmap.sensors == "period_mean"
+                      else resample.linear(s.stamps_ns, s.values, grid_ns))
         columns.update({target: values[:, k] for k, target in enumerate(entry.targets)})
     full_meta = {"daq_averaging": rmap.sensors == "period_mean", **rmap.meta, "imported_from": str(path),
                  "import_map": rmap.path, "ros_start_ns": int(grid_ns[0]),
