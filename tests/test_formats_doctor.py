@@ -75,7 +75,7 @@ RUN_DEPENDENT = ("seconds", "train_sources", "heldout_sources")  # wall time and
 @pytest.mark.slow
 @pytest.mark.skipif(not BLIND.is_dir(), reason="shared/samples not beside the repo")
 def test_parquet_and_mcap_give_the_doctor_report_of_the_csv(tmp_path):
-    """10 s fitted and 5 s held out of a blind case; ~45 s for the three doctor runs."""
+    """10 s fitted and 5 s held out of a blind case; ~45-50 s for the three doctor runs."""
     files = three_formats(tmp_path, seconds=10.0)
     reports = {}
     for fmt, f in files.items():
