@@ -158,7 +158,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("doctor", help="find the physics a simulation left out (writes DIR/report.json, .md, .rrd)")
     p.add_argument("--model", required=True, help="model name (pneumasim models)")
     p.add_argument("recordings", nargs="+", metavar="REC",
-                   help="recordings to fit: .csv, .parquet, or ROS bags (.bag, .db3, .mcap, ROS 2 bag folder) with --map")
+                   help="recordings to fit: .csv, .parquet, or ROS bags (.bag, .db3, .mcap, a ROS 2 bag folder) "
+                        "with --map")
     p.add_argument("--holdout", nargs="+", metavar="REC", help="held-out recordings (default: last 30 %%)")
     p.add_argument("--map", metavar="MAP.toml",
                    help="import map with a [ros] section for ROS bag recordings, or a shipped one's name (ros_arm2)")
