@@ -36,7 +36,7 @@ def _cmd_doctor(args):
     kind_of(args.model)  # an unknown model, or one without a doctor, fails here before any work
     folder = OutputFolder(args.out, inputs=[*args.recordings, *(args.holdout or [])])
     with folder, Progress(f"doctor {args.model}") as progress:
-        recs, holds = _read_recordings(args, progress)
+        recs, holds = recordings_from_args(args, progress)
         report = diagnose(args.model, recs, holds, progress=progress)
         progress.say("writing the report")
         write(report, folder.path)
@@ -48,7 +48,7 @@ def _cmd_doctor(args):
               f"{args.out}/fitted.xml (MuJoCo)")
 
 
-def _read_recordings(args, progress):
+def recordings_from_args(args, progress=None):
     """The doctor's recordings and held-out recordings, each by its suffix (CSV, Parquet, or a
     ROS bag read through --map); with ``--gauge`` the room pressure [Pa] (the sidecar's
     room_pa, else the model's) is added to every p_a./p_b. column."""
@@ -63,7 +63,8 @@ def _read_recordings(args, progress):
         rec = read_recording(path, args.map if is_ros_bag(path) else None)
         return add_room_pressure(rec, float(rec.meta.get("room_pa", room_pa))) if args.gauge else rec
 
-    progress.say(f"reading {len(args.recordings) + len(args.holdout or [])} recording(s)")
+    if progress is not None:
+        progress.say(f"reading {len(args.recordings) + len(args.holdout or [])} recording(s)")
     return [read(p) for p in args.recordings], [read(p) for p in (args.holdout or [])]
 
 
@@ -146,7 +147,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("doctor", help="find the physics a simulation left out (writes DIR/report.json, .md, .rrd)")
     p.add_argument("--model", required=True, help="model name (pneumasim models)")
     p.add_argument("recordings", nargs="+", metavar="REC",
-                   help="recordings to fit: .csv, .parquet, or ROS bags (.bag, .db3, .mcap, ROS 2 bag folder) with --map")
+                   help="recordings to fit: .csv, .parquet, or ROS bags (.bag, .db3, .mcap, a ROS 2 bag folder) "
+                        "with --map")
     p.add_argument("--holdout", nargs="+", metavar="REC", help="held-out recordings (default: last 30 %%)")
     p.add_argument("--map", metavar="MAP.toml",
                    help="import map with a [ros] section for ROS bag recordings, or a shipped one's name (ros_arm2)")

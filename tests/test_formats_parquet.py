@@ -117,3 +117,14 @@ def test_integer_columns_are_numbers_and_validation_still_applies(tmp_path):
     with pytest.raises(RecordingError, match="column 'p_a.shoulder' is at most 3: looks like bar"), \
             pytest.warns(RecordingWarning, match="gauge pressure"):
         validate(rec, JOINTS, ACTS, need_commands=False, need_pressures=False)
+
+
+def test_column_names_lose_a_byte_order_mark_and_spaces_as_in_a_csv_header(tmp_path):
+    """A table converted from Excel's "CSV UTF-8" can carry the BOM in its first name."""
+    pq.write_table(pa.table({"\ufefftime": [0.0, 0.01], " q.elbow ": [0.1, 0.2]}), tmp_path / "bom.parquet")
+    rec = read_parquet(tmp_path / "bom.parquet")
+    assert list(rec.columns) == ["q.elbow"] and rec.time.tolist() == [0.0, 0.01]
+    pq.write_table(pa.table({"time": [0.0, 0.01], "q.elbow": [0.1, 0.2], "q.elbow ": [0.1, 0.2]}),
+                   tmp_path / "dup.parquet")
+    with pytest.raises(RecordingError, match="dup.parquet: repeated column\\(s\\) \\['q.elbow'\\]"):
+        read_parquet(tmp_path / "dup.parquet")

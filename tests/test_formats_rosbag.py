@@ -87,7 +87,8 @@ def write_messages(path: Path, topics: dict):
                     extra = {"seq": 0} if ros1 else {}
                     fields = {"header": types["std_msgs/msg/Header"](stamp=stamp, frame_id="", **extra), **fields}
                 msg = types[msgtype](**fields)
-                writer.write(con, receive_ns, store.serialize_ros1(msg, msgtype) if ros1 else store.serialize_cdr(msg, msgtype))
+                serialize = store.serialize_ros1 if ros1 else store.serialize_cdr
+                writer.write(con, receive_ns, serialize(msg, msgtype))
     return path
 
 
@@ -111,7 +112,8 @@ W = 2 * np.pi * 1.5  # the shoulder's sine [rad/s]
 def multirate_topics(seconds=2.0, jitter_seed=5):
     """/js ~1 kHz with jitter, /pa and /pb 250 Hz, /u 20 Hz (Float64), /cmd 50 Hz (3-element array)."""
     rng = np.random.default_rng(jitter_seed)
-    js_ns = START_NS + np.arange(int(seconds * 1000) + 1) * 1_000_000 + rng.integers(0, 300_000, int(seconds * 1000) + 1)
+    n = int(seconds * 1000) + 1
+    js_ns = START_NS + np.arange(n) * 1_000_000 + rng.integers(0, 300_000, n)
     js_ns[0] = START_NS
     js = [(int(n), int(n) - 5_000_000, joint_state(np.sin(W * (n - START_NS) / NS), 0.5 * ((n - START_NS) / NS) ** 2))
           for n in js_ns]
@@ -207,10 +209,12 @@ def test_header_stamps_give_the_sensor_clock(tmp_path):
     # the receive-time reading, and the grid starts where every topic (by its clock) has data
     rec_rx = read_bag(bag, a_map(tmp_path, name="rx.toml"))
     assert rec.meta["ros_start_ns"] == rec_rx.meta["ros_start_ns"] == START_NS
-    np.testing.assert_allclose(rec["q.shoulder"][:-1], np.sin(W * (rec.time[:-1] + 0.005)),
-                               atol=(1.3e-3) ** 2 / 8 * W ** 2)
+    bound = (1.3e-3) ** 2 / 8 * W ** 2
+    np.testing.assert_allclose(rec_rx["q.shoulder"], np.sin(W * rec_rx.time), atol=bound)
+    np.testing.assert_allclose(rec["q.shoulder"][:-1], np.sin(W * (rec.time[:-1] + 0.005)), atol=bound)
+    u_by_header = ('targets = ["u_a.shoulder"]', 'targets = ["u_a.shoulder"]\nstamp = "header"')
     with pytest.raises(RecordingError, match="topic '/u' has no header.*stamp = \"receive\""):
-        read_bag(bag, a_map(tmp_path, edit=('targets = ["u_a.shoulder"]', 'targets = ["u_a.shoulder"]\nstamp = "header"')))
+        read_bag(bag, a_map(tmp_path, edit=u_by_header))
 
 
 def test_ros1_bag_with_names_in_another_order(tmp_path):
@@ -299,3 +303,22 @@ def test_wrong_pairings_of_file_and_map_are_explained(tmp_path):
         read_recording(tmp_path / "junk.mcap", a_map(tmp_path))
     with pytest.raises(RecordingError, match="gone.bag: ROS bag not found"):
         read_recording(tmp_path / "gone.bag", a_map(tmp_path))
+
+
+def test_pneumasim_import_turns_a_bag_into_csv_or_parquet(tmp_path, capsys):
+    from pneumasim.cli import main as cli_main
+
+    rec = with_reference(arm2_like(n=120))
+    bag = write_recording(rec, tmp_path / "lab.db3", "ros_arm2")
+    for out in ("run.parquet", "run.csv"):
+        cli_main(["import", str(bag), "--map", "ros_arm2", "--out", str(tmp_path / out), "--meta", "operator_note=x"])
+        back = read_recording(tmp_path / out)
+        np.testing.assert_allclose(back["p_b.elbow"], rec["p_b.elbow"], rtol=1e-6)
+        assert back.meta["model"] == "arm2" and back.meta["operator_note"] == "x"
+        assert back.meta["imported_from"] == str(bag)
+    assert "120 rows" in capsys.readouterr().out
+    with pytest.raises(SystemExit, match="pneumasim: error: .*ros_arm2.toml: no \\[\\[column\\]\\] entries: this map "
+                                         "reads ROS bags"):
+        cli_main(["import", str(tmp_path / "run.csv"), "--map", "ros_arm2", "--out", str(tmp_path / "x.csv")])
+    with pytest.raises(SystemExit, match="pneumasim: error: .*lab: a ROS bag needs an import map"):
+        cli_main(["doctor", "--model", "arm2", str(bag), "--out", str(tmp_path / "doc")])

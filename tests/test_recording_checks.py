@@ -105,12 +105,11 @@ def test_gauge_option_of_the_cli_and_its_error(arm2, rec, tmp_path, capsys):
 
 
 def test_sidecar_room_pressure_is_used_by_gauge(tmp_path):
-    from pneumasim.cli import _read_recordings, build_parser
+    from pneumasim.cli import build_parser, recordings_from_args
     (tmp_path / "g.csv").write_text("time,p_a.x\n0,0\n0.01,2e5\n")
     (tmp_path / "g.json").write_text(json.dumps({"room_pa": 95000.0}))
     args = build_parser().parse_args(["doctor", "--model", "arm2", str(tmp_path / "g.csv"), "--out", "o", "--gauge"])
-    say = type("Say", (), {"say": lambda self, msg: None})()
-    (recs, _) = _read_recordings(args, say)
+    (recs, _) = recordings_from_args(args)
     assert np.allclose(recs[0]["p_a.x"], [95000.0, 295000.0]) and recs[0].meta["gauge_room_pa"] == 95000.0
 
 

@@ -5,6 +5,7 @@ One float64 column per channel, ``time`` [s] first; the sidecar metadata that a 
 one file carries both.  Reading applies the CSV reader's checks (``time`` present, no
 repeated column, numbers only, no NaN/inf/null, at least 2 rows, strictly increasing time)
 with the same messages; rows are counted from 1 (a CSV's line number is the row + 1).
+Column names lose surrounding spaces and a leading byte-order mark, as a CSV header does.
 
 This module works on plain arrays (``time``, ``columns``, ``meta``) so that
 :mod:`pneumatics.recording` can build on it without an import cycle.
@@ -47,7 +48,9 @@ def read_table(path: str | Path) -> tuple[np.ndarray, dict[str, np.ndarray], dic
         table = pq.ParquetFile(path).read()
     except (pa.ArrowException, OSError) as e:
         raise RecordingError(f"{path}: not a readable Parquet file ({e})") from None
-    header = table.column_names
+    # as a CSV header is read: spaces around a name and a byte-order mark (a table converted
+    # from Excel's "CSV UTF-8") are not part of it
+    header = [name.lstrip("\ufeff").strip() for name in table.column_names]
     if "time" not in header:
         raise RecordingError(f"{path}: no 'time' column in the header (got {', '.join(header[:8])}...)")
     dup = {h for h in header if header.count(h) > 1}

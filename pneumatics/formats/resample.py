@@ -9,8 +9,9 @@ Three rules, chosen by what the channel is (docs/recordings.md):
   (DESIGN.md, the DAQ of paper 002);
 * **linear** interpolation for sensors sampled at about the recording's rate or faster: the
   measured quantities (angles, pressures) are continuous, and the linear interpolant's error
-  is bounded by ``h^2 max|x''| / 8`` for a message spacing ``h`` (e.g. Press et al.,
-  *Numerical Recipes*, 3rd ed., sec. 3.1), with no delay;
+  is bounded by ``h^2 max|x''| / 8`` for a message spacing ``h`` (the Lagrange remainder for
+  n = 1, ``|x''(xi) (t - t0)(t - t1)| / 2`` with ``|(t - t0)(t - t1)| <= h^2 / 4``: Burden & Faires,
+  *Numerical Analysis*, Thm. 3.3), with no delay;
 * **period mean**: the mean over the period ``(t - T, t]`` of that linear interpolant — the
   DAQ averaging of paper 002 (row k's sensors are the mean over the control period ending at
   ``time[k]``), for sensors published much faster than the recording's rate; it is an

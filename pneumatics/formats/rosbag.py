@@ -63,11 +63,10 @@ def read_bag(path: str | Path, mapping: ImportMap | str | Path, meta: dict | Non
         s = samples[entry.topic]
         if isinstance(entry, CommandTopic):
             values = resample.zero_order_hold(s.stamps_ns, s.values, grid_ns)
-        elif rmap.sensors == "period_mean":
-            values = resample.period_mean(s.stamps_ns, s.values, grid_ns, period_s)
         else:
-            values = resample.linear(s.stamps_ns, s.values, grid_ns)
-            _warn_if_slow(path, entry, s, rmap.rate_hz)
+            _warn_if_sparse(path, entry, s, rmap.rate_hz)
+            values = (resample.period_mean(s.stamps_ns, s.values, grid_ns, period_s) if rmap.sensors == "period_mean"
+                      else resample.linear(s.stamps_ns, s.values, grid_ns))
         columns.update({target: values[:, k] for k, target in enumerate(entry.targets)})
     full_meta = {"daq_averaging": rmap.sensors == "period_mean", **rmap.meta, "imported_from": str(path),
                  "import_map": rmap.path, "ros_start_ns": int(grid_ns[0]),
@@ -238,8 +237,8 @@ def _grid(path: Path, rmap: RosMap, samples: dict[str, TopicSamples]) -> np.ndar
     return grid
 
 
-def _warn_if_slow(path: Path, entry, s: TopicSamples, rate_hz: float):
-    """Linear interpolation invents values between messages: say so if they are sparse."""
+def _warn_if_sparse(path: Path, entry, s: TopicSamples, rate_hz: float):
+    """Both sensor rules interpolate between messages: say so where they are sparse."""
     gap_s, before_ns, median_s = resample.largest_gap(s.stamps_ns)
     if median_s > 1.5 / rate_hz:
         warnings.warn(f"{path}: topic {entry.topic!r} publishes at ~{1 / median_s:.3g} Hz, below the map's "

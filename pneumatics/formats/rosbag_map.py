@@ -133,7 +133,7 @@ def _joint_state(t, where, stamp, atm) -> JointStateTopic:
     joints = t.get("joints")
     if not isinstance(joints, dict) or not joints or not all(isinstance(v, str) for v in joints.values()):
         raise ConfigError(f"{where}: joints = {joints!r}: expected a table recording joint = \"name in the "
-                          "message\", e.g. joints = {{ elbow = \"elbow_joint\" }}")
+                          "message\", e.g. joints = { elbow = \"elbow_joint\" }")
     for j in joints:
         _target(f"q.{j}", where)
     fields = t.get("fields", ["position"])

@@ -39,11 +39,11 @@ def write_bag(rec: Recording, path: str | Path, mapping: ImportMap | str | Path,
     if out.exists():
         raise RecordingError(f"{out}: exists already; a bag is never overwritten")
     with _writer(out, suffix) as (writer, store):
-        for entry in rmap.entries:
-            msgtype = _msgtype(entry)
-            con = writer.add_connection(entry.topic, msgtype, typestore=store)
-            serialize = store.serialize_ros1 if ros1 else store.serialize_cdr
-            for k, stamp in enumerate(stamps):
+        serialize = store.serialize_ros1 if ros1 else store.serialize_cdr
+        cons = [(entry, _msgtype(entry)) for entry in rmap.entries]
+        cons = [(e, t, writer.add_connection(e.topic, t, typestore=store)) for e, t in cons]
+        for k, stamp in enumerate(stamps):  # in time order, as a recorder writes: readers merge by time
+            for entry, msgtype, con in cons:
                 msg = _message(store, entry, rec, k, int(stamp), rmap.atmosphere_pa)
                 writer.write(con, int(stamp), serialize(msg, msgtype))
     return out
