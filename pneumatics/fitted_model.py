@@ -134,6 +134,10 @@ def read_fitted(path) -> FittedModel:
         if key not in known:
             raise ConfigError(f"{where}: unknown key {key!r}; valid: {', '.join(sorted(known))}")
     m = _table(doc.get("model"), f"{where} [model]")
+    fields = {"name", "pneumasim_version", "fitted_on", "heldout_on", "heldout_nrmse_after"}
+    for key in m:
+        if key not in fields:
+            raise ConfigError(f"{where} [model]: unknown field {key!r}; valid: {', '.join(sorted(fields))}")
     name = m.get("name")
     if not isinstance(name, str) or not name:
         raise ConfigError(f"{where} [model].name: expected the model's name (a string), got {name!r}")
@@ -277,8 +281,6 @@ def calibrated_robot(robot, fm: FittedModel):
     valve areas and dead volumes scaled in its fluid parameters, body masses and inertias, joint
     damping and armature scaled in a copy of its MuJoCo model.  An unknown place is a
     ConfigError naming the file's entry."""
-    from .robot import _assemble
-
     src = fm.path or "model.toml"
     chambers = [f"{a}.{c}" for a, c in robot.chamber_names]
     fluid = robot.fluid
@@ -306,4 +308,6 @@ def calibrated_robot(robot, fm: FittedModel):
         model.dof_damping[model.joint(joint).dofadr[0]] *= s
     for joint, s in fm.scales("armature_scale").items():
         model.dof_armature[model.joint(joint).dofadr[0]] *= s
-    return _assemble(robot.name, model, fluid, robot.mjcf_path)
+    # the fluid tables rebuilt from the scaled parameters, then the scaled MuJoCo model (the
+    # masses, damping and armature do not move the pistons' zero lengths the tables hold)
+    return dataclasses.replace(robot.with_fluid(fluid), model=model)
