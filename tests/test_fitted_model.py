@@ -354,3 +354,24 @@ def test_run_fitted_simulates_the_fitted_robot(tmp_path):
     fitted = run_scenario("arm2_step_response", tmp_path / "fitted", fast=True, quiet=True, fitted=path)
     assert fitted["fitted_model"] == str(path)
     assert fitted["peak_velocity_deg_s"] < 0.9 * nominal["peak_velocity_deg_s"]
+
+
+def test_a_humanoid_fitted_model_loads_and_its_mjcf_steps(tmp_path):
+    """The same files for the 38-DOF humanoid: a heavier torso link, a damper and a Coulomb
+    level at the waist roll, a wider valve; fitted.xml compiles and steps without warnings."""
+    nominal = load_robot("humanoid38")
+    body, joint, act = "waist_pitch_link", "waist_roll", nominal.actuator_names[0]
+    fm = FittedModel("humanoid38", calibration={f"mass_scale.{body}": est(1.2), f"damping_scale.{joint}": est(1.1),
+                                                f"supply_area_scale.{act}.a": est(1.1)},
+                     effects=[effect("coulomb_friction", "coulomb", {"joint": joint}, coulomb_nm=0.1)])
+    robot = load_robot("humanoid38", fitted=write_fitted(fm, tmp_path / "model.toml"))
+    b = nominal.model.body(body).id
+    assert robot.model.body_mass[b] == pytest.approx(1.2 * nominal.model.body_mass[b])
+    assert robot.effects.friction == {joint: {"coulomb_nm": 0.1}}
+    m = mujoco.MjModel.from_xml_path(str(write_fitted_mjcf(nominal, fm, tmp_path / "fitted.xml")))
+    assert m.body_mass[m.body(body).id] == pytest.approx(1.2 * nominal.model.body_mass[b], rel=1e-5)
+    assert m.dof_frictionloss[m.joint(joint).dofadr[0]] == pytest.approx(0.1)
+    d = mujoco.MjData(m)
+    for _ in range(1000):
+        mujoco.mj_step(m, d)
+    assert all(w.number == 0 for w in d.warning)
