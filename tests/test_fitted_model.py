@@ -214,6 +214,15 @@ def test_an_end_stop_is_applied_at_its_angle_and_says_what_is_approximate(arm2):
     assert mm.end_stops[1] == (1.0, 1.0) and mm.end_stop_nm_per_rad[1] == 200.0
 
 
+def test_an_entry_the_simulator_has_no_place_for_is_kept_and_named(arm2, tmp_path):
+    """A load-cell offset (the bench doctor's) stays in the file and is a warning at load."""
+    fm = FittedModel("arm2", effects=[effect("force_sensor_offset", "additive", {"actuator": "elbow"}, offset_n=1.5)])
+    path = write_fitted(fm, tmp_path / "model.toml")
+    with pytest.warns(FittedModelWarning, match=r"\[\[effect\]\] #1 \(force_sensor_offset at elbow\).*not applied"):
+        robot = load_robot("arm2", fitted=path)
+    assert robot.effects.empty and robot.fitted.effects[0].value("offset_n") == 1.5
+
+
 def test_bad_fitted_files_are_one_clear_error(tmp_path):
     good = fitted_text(full_model())
     cases = {
