@@ -384,3 +384,29 @@ def test_a_humanoid_fitted_model_loads_and_its_mjcf_steps(tmp_path):
     for _ in range(1000):
         mujoco.mj_step(m, d)
     assert all(w.number == 0 for w in d.warning)
+
+
+def test_a_tube_the_doctor_fitted_into_the_dead_volume_is_counted_once(arm2):
+    """line_dynamics: the doctor fits tube + chamber as one dead-volume scale (1.8 here); the
+    file gives the tube what grew past nominal and the chamber a scale of 1, and the loaded
+    model's total dead volume is the fitted one."""
+    from identification.fitted_model import fitted_model
+
+    report = {"model": "arm2", "calibrated_with_findings": {"dead_volume_scale.elbow.b": 1.8, "mass_scale.forearm": 1.05},
+              "findings": [{"effect": "line_dynamics", "where": {"actuator": "elbow", "chamber": "b"}},
+                           {"effect": "stiction", "where": {"joint": "shoulder"}}],
+              "unexplained": [], "after": {"heldout_nrmse": {"q.elbow": 0.01}},
+              "diagnostics": {"train_sources": ["a.csv"], "heldout_sources": "last 30 % of each recording"}}
+    params = [{"delay_s": est(0.012, 0.001), "volume_m3": est(1.0, 1.0)},
+              {"coulomb_nm": est(0.03, 0.001), "breakaway_extra_nm": est(0.02, 0.002)}]
+    fm = fitted_model(arm2, report, params, {"dead_volume_scale.elbow.b": 0.09, "mass_scale.forearm": 0.01})
+    c = [f"{a}.{ch}" for a, ch in arm2.chamber_names].index("elbow.b")
+    nominal = arm2.tables.dead_volume[c]
+    assert fm.calibration["dead_volume_scale.elbow.b"]["value"] == 1.0
+    tube = fm.effects[0].parameters["volume_m3"]
+    assert tube["value"] == pytest.approx(0.8 * nominal) and tube["stderr"] == pytest.approx(0.09 * nominal)
+    assert fm.effects[1].form == "stribeck" and fm.effects[1].value("stribeck_velocity_rad_s") == 0.1
+    robot = load_robot("arm2", fitted=fm)
+    delay, volume = robot.effects.line_arrays(robot)
+    assert robot.tables.dead_volume[c] + volume[c] == pytest.approx(1.8 * nominal) and delay[c] == 0.012
+    assert fm.heldout_on == ["last 30 % of each recording"] and fm.calibration["mass_scale.forearm"]["stderr"] == 0.01
