@@ -149,13 +149,16 @@ def read_fitted(path) -> FittedModel:
                               f"{', '.join(CALIBRATION_KINDS)}")
         _estimate(entry, f"{where} [calibration].{key!r}", positive=True)
     effects = [_effect(e, f"{where} [[effect]] #{i + 1}") for i, e in enumerate(_list(doc.get("effect", []), where, "effect"))]
+    unexplained = [_table(u, f"{where} [[unexplained]] #{i + 1}")
+                   for i, u in enumerate(_list(doc.get("unexplained", []), where, "unexplained"))]
+    for i, u in enumerate(unexplained):
+        _table(u.get("where", {}), f"{where} [[unexplained]] #{i + 1}.where")
     nrmse = _table(m.get("heldout_nrmse_after", {}), f"{where} [model].heldout_nrmse_after")
     for k, v in nrmse.items():
         _number(v, f"{where} [model].heldout_nrmse_after.{k!r}")
     return FittedModel(
         model=name, calibration=cal, effects=effects,
-        unexplained=[_table(u, f"{where} [[unexplained]] #{i + 1}")
-                     for i, u in enumerate(_list(doc.get("unexplained", []), where, "unexplained"))],
+        unexplained=unexplained,
         fitted_on=_strings(m.get("fitted_on", []), f"{where} [model].fitted_on"),
         heldout_on=_strings(m.get("heldout_on", []), f"{where} [model].heldout_on"),
         heldout_nrmse_after={k: float(v) for k, v in nrmse.items()},
