@@ -134,6 +134,10 @@ def read_fitted(path) -> FittedModel:
         if key not in known:
             raise ConfigError(f"{where}: unknown key {key!r}; valid: {', '.join(sorted(known))}")
     m = _table(doc.get("model"), f"{where} [model]")
+    fields = {"name", "pneumasim_version", "fitted_on", "heldout_on", "heldout_nrmse_after"}
+    for key in m:
+        if key not in fields:
+            raise ConfigError(f"{where} [model]: unknown field {key!r}; valid: {', '.join(sorted(fields))}")
     name = m.get("name")
     if not isinstance(name, str) or not name:
         raise ConfigError(f"{where} [model].name: expected the model's name (a string), got {name!r}")
@@ -145,13 +149,16 @@ def read_fitted(path) -> FittedModel:
                               f"{', '.join(CALIBRATION_KINDS)}")
         _estimate(entry, f"{where} [calibration].{key!r}", positive=True)
     effects = [_effect(e, f"{where} [[effect]] #{i + 1}") for i, e in enumerate(_list(doc.get("effect", []), where, "effect"))]
+    unexplained = [_table(u, f"{where} [[unexplained]] #{i + 1}")
+                   for i, u in enumerate(_list(doc.get("unexplained", []), where, "unexplained"))]
+    for i, u in enumerate(unexplained):
+        _table(u.get("where", {}), f"{where} [[unexplained]] #{i + 1}.where")
     nrmse = _table(m.get("heldout_nrmse_after", {}), f"{where} [model].heldout_nrmse_after")
     for k, v in nrmse.items():
         _number(v, f"{where} [model].heldout_nrmse_after.{k!r}")
     return FittedModel(
         model=name, calibration=cal, effects=effects,
-        unexplained=[_table(u, f"{where} [[unexplained]] #{i + 1}")
-                     for i, u in enumerate(_list(doc.get("unexplained", []), where, "unexplained"))],
+        unexplained=unexplained,
         fitted_on=_strings(m.get("fitted_on", []), f"{where} [model].fitted_on"),
         heldout_on=_strings(m.get("heldout_on", []), f"{where} [model].heldout_on"),
         heldout_nrmse_after={k: float(v) for k, v in nrmse.items()},
@@ -277,8 +284,6 @@ def calibrated_robot(robot, fm: FittedModel):
     valve areas and dead volumes scaled in its fluid parameters, body masses and inertias, joint
     damping and armature scaled in a copy of its MuJoCo model.  An unknown place is a
     ConfigError naming the file's entry."""
-    from .robot import _assemble
-
     src = fm.path or "model.toml"
     chambers = [f"{a}.{c}" for a, c in robot.chamber_names]
     fluid = robot.fluid
@@ -306,4 +311,6 @@ def calibrated_robot(robot, fm: FittedModel):
         model.dof_damping[model.joint(joint).dofadr[0]] *= s
     for joint, s in fm.scales("armature_scale").items():
         model.dof_armature[model.joint(joint).dofadr[0]] *= s
-    return _assemble(robot.name, model, fluid, robot.mjcf_path)
+    # the fluid tables rebuilt from the scaled parameters, then the scaled MuJoCo model (the
+    # masses, damping and armature do not move the pistons' zero lengths the tables hold)
+    return dataclasses.replace(robot.with_fluid(fluid), model=model)

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from pneumatics.robot import load_robot
 from pneumatics.runner import OpenLoop, run as run_loop
 from pneumatics.sim import Simulation
 
 from .common import main, plt
 
 SUMMARY = "38-DOF humanoid under open-loop valve patterns: finite, warning-free, plausible pressures"
+FITTED_MODEL = "humanoid38"  # takes --fitted: a doctor's model.toml of humanoid38 (scenarios.common)
 
 
 def pattern(n_act: int, null_v: np.ndarray, seed: int = 0):
@@ -39,7 +39,7 @@ def pattern(n_act: int, null_v: np.ndarray, seed: int = 0):
 
 def run(ctx):
     duration = 3.0 if ctx.fast else 8.0
-    robot = load_robot("humanoid38")
+    robot = ctx.load_robot("humanoid38")
     sim = Simulation(robot)
     sim.reset(pressure_pa=4.0e5)
     n_act = len(robot.actuator_names)

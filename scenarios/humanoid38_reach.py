@@ -17,7 +17,6 @@ import numpy as np
 
 from controllers.end_effector import EndEffectorCfg, EndEffectorController
 from controllers.linearize import Linearized
-from pneumatics.robot import load_robot
 from pneumatics.runner import run as run_loop
 from pneumatics.sim import Simulation
 
@@ -25,6 +24,7 @@ from ._humanoid import START_PRESSURE_PA, calibrated_linearizer, pidf_gains, ran
 from .common import main, plt
 
 SUMMARY = "§VI-B: the humanoid's hand follows a moving 3-D target (J^T law + null space), Cartesian error"
+FITTED_MODEL = "humanoid38"  # takes --fitted: a doctor's model.toml of humanoid38 (scenarios.common)
 ARM = ["left_shoulder_pitch", "left_shoulder_roll", "left_shoulder_yaw", "left_elbow",
        "left_forearm_roll", "left_wrist_pitch", "left_wrist_yaw"]
 HAND = "left_palm"
@@ -66,7 +66,7 @@ class Hold:
 def run(ctx):
     duration = 6.0 if ctx.fast else 30.0
     stop_s = duration - (2.0 if ctx.fast else 5.0)
-    robot = load_robot("humanoid38")
+    robot = ctx.load_robot("humanoid38")
     lin, _, _ = calibrated_linearizer(robot, ctx.fast)
     gains = pidf_gains(range_test(robot, lin, one_at_a_time=False))
     sim = Simulation(robot)

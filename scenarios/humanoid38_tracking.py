@@ -28,7 +28,6 @@ import models
 from controllers.reference import standard_references
 from pneumatics.effects.effect_set import EffectSet
 from pneumatics.effects.tubes import load_tube_layout, tube_lengths, tube_line_dynamics
-from pneumatics.robot import load_robot
 from pneumatics.runner import run as run_loop
 from pneumatics.sim import Simulation
 
@@ -43,6 +42,7 @@ from ._humanoid import (
 from .common import main, plt
 
 SUMMARY = "§VI-A, Fig. 7: 38-DOF humanoid tracks a 60 s reference (calibrated valves, PIDF): error % of range, lag"
+FITTED_MODEL = "humanoid38"  # takes --fitted: a doctor's model.toml of humanoid38 (scenarios.common)
 MAX_LAG_MS = 300
 PLOTTED = ["waist_yaw", "waist_pitch", "neck_yaw", "neck_pitch", "head_pitch", "jaw",
            "left_shoulder_pitch", "left_shoulder_roll", "left_shoulder_yaw", "left_elbow",
@@ -84,7 +84,7 @@ def track(robot, cfg, ref, lin, duration, seed, logger=None, model: bool = False
 
 def run(ctx):
     duration = 8.0 if ctx.fast else 60.0
-    robot = load_robot("humanoid38")
+    robot = ctx.load_robot("humanoid38")
     lin, _, cal_err = calibrated_linearizer(robot, ctx.fast)
     range_per_volt = range_test(robot, lin, one_at_a_time=not ctx.fast)
     cfg = pidf_gains(range_per_volt)

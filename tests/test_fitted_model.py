@@ -90,8 +90,8 @@ def test_friction_forms_at_one_joint_add_up(arm2):
 
 
 def test_every_doctor_hypothesis_has_a_form_the_simulator_maps(arm2):
-    exp_free = mechanical_hypotheses(arm2)  # end stops need data to place them: checked below
-    for h in pneumatic_hypotheses(arm2) + exp_free:
+    # mechanical_hypotheses without data leaves out the end stops (they need data to place them)
+    for h in pneumatic_hypotheses(arm2) + mechanical_hypotheses(arm2):
         names = [p[0] for p in h.params] + list(h.fixed) + (["volume_m3"] if h.adds_volume else [])
         form = form_of(h.family, names)
         assert set(FORMS[(h.family, form)][0]) <= set(names)
@@ -212,6 +212,15 @@ def test_an_end_stop_is_applied_at_its_angle_and_says_what_is_approximate(arm2):
     assert robot.effects.end_stop["elbow"]["upper_intrusion_rad"] == pytest.approx(hi - 1.0)
     _, mm = replay_mods(robot)  # the doctor's replay keeps the fitted spring
     assert mm.end_stops[1] == (1.0, 1.0) and mm.end_stop_nm_per_rad[1] == 200.0
+
+
+def test_an_entry_the_simulator_has_no_place_for_is_kept_and_named(arm2, tmp_path):
+    """A load-cell offset (the bench doctor's) stays in the file and is a warning at load."""
+    fm = FittedModel("arm2", effects=[effect("force_sensor_offset", "additive", {"actuator": "elbow"}, offset_n=1.5)])
+    path = write_fitted(fm, tmp_path / "model.toml")
+    with pytest.warns(FittedModelWarning, match=r"\[\[effect\]\] #1 \(force_sensor_offset at elbow\).*not applied"):
+        robot = load_robot("arm2", fitted=path)
+    assert robot.effects.empty and robot.fitted.effects[0].value("offset_n") == 1.5
 
 
 def test_bad_fitted_files_are_one_clear_error(tmp_path):
@@ -354,3 +363,50 @@ def test_run_fitted_simulates_the_fitted_robot(tmp_path):
     fitted = run_scenario("arm2_step_response", tmp_path / "fitted", fast=True, quiet=True, fitted=path)
     assert fitted["fitted_model"] == str(path)
     assert fitted["peak_velocity_deg_s"] < 0.9 * nominal["peak_velocity_deg_s"]
+
+
+def test_a_humanoid_fitted_model_loads_and_its_mjcf_steps(tmp_path):
+    """The same files for the 38-DOF humanoid: a heavier torso link, a damper and a Coulomb
+    level at the waist roll, a wider valve; fitted.xml compiles and steps without warnings."""
+    nominal = load_robot("humanoid38")
+    body, joint, act = "waist_pitch_link", "waist_roll", nominal.actuator_names[0]
+    fm = FittedModel("humanoid38", calibration={f"mass_scale.{body}": est(1.2), f"damping_scale.{joint}": est(1.1),
+                                                f"supply_area_scale.{act}.a": est(1.1)},
+                     effects=[effect("coulomb_friction", "coulomb", {"joint": joint}, coulomb_nm=0.1)])
+    robot = load_robot("humanoid38", fitted=write_fitted(fm, tmp_path / "model.toml"))
+    b = nominal.model.body(body).id
+    assert robot.model.body_mass[b] == pytest.approx(1.2 * nominal.model.body_mass[b])
+    assert robot.effects.friction == {joint: {"coulomb_nm": 0.1}}
+    m = mujoco.MjModel.from_xml_path(str(write_fitted_mjcf(nominal, fm, tmp_path / "fitted.xml")))
+    assert m.body_mass[m.body(body).id] == pytest.approx(1.2 * nominal.model.body_mass[b], rel=1e-5)
+    assert m.dof_frictionloss[m.joint(joint).dofadr[0]] == pytest.approx(0.1)
+    d = mujoco.MjData(m)
+    for _ in range(1000):
+        mujoco.mj_step(m, d)
+    assert all(w.number == 0 for w in d.warning)
+
+
+def test_a_tube_the_doctor_fitted_into_the_dead_volume_is_counted_once(arm2):
+    """line_dynamics: the doctor fits tube + chamber as one dead-volume scale (1.8 here); the
+    file gives the tube what grew past nominal and the chamber a scale of 1, and the loaded
+    model's total dead volume is the fitted one."""
+    from identification.doctor.valve_arm.fitted_model import fitted_model
+
+    report = {"model": "arm2", "calibrated_with_findings": {"dead_volume_scale.elbow.b": 1.8, "mass_scale.forearm": 1.05},
+              "findings": [{"effect": "line_dynamics", "where": {"actuator": "elbow", "chamber": "b"}},
+                           {"effect": "stiction", "where": {"joint": "shoulder"}}],
+              "unexplained": [], "after": {"heldout_nrmse": {"q.elbow": 0.01}},
+              "diagnostics": {"train_sources": ["a.csv"], "heldout_sources": "last 30 % of each recording"}}
+    params = [{"delay_s": est(0.012, 0.001), "volume_m3": est(1.0, 1.0)},
+              {"coulomb_nm": est(0.03, 0.001), "breakaway_extra_nm": est(0.02, 0.002)}]
+    fm = fitted_model(arm2, report, params, {"dead_volume_scale.elbow.b": 0.09, "mass_scale.forearm": 0.01})
+    c = [f"{a}.{ch}" for a, ch in arm2.chamber_names].index("elbow.b")
+    nominal = arm2.tables.dead_volume[c]
+    assert fm.calibration["dead_volume_scale.elbow.b"]["value"] == 1.0
+    tube = fm.effects[0].parameters["volume_m3"]
+    assert tube["value"] == pytest.approx(0.8 * nominal) and tube["stderr"] == pytest.approx(0.09 * nominal)
+    assert fm.effects[1].form == "stribeck" and fm.effects[1].value("stribeck_velocity_rad_s") == 0.1
+    robot = load_robot("arm2", fitted=fm)
+    delay, volume = robot.effects.line_arrays(robot)
+    assert robot.tables.dead_volume[c] + volume[c] == pytest.approx(1.8 * nominal) and delay[c] == 0.012
+    assert fm.heldout_on == ["last 30 % of each recording"] and fm.calibration["mass_scale.forearm"]["stderr"] == 0.01

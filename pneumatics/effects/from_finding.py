@@ -85,9 +85,10 @@ def effect_set(effects: list, robot, source: str = "model.toml") -> tuple[Effect
     return out, notes
 
 
-def warn_notes(notes: list[str]):
+def warn_notes(notes: list[str], stacklevel: int = 4):
+    """One FittedModelWarning per note, attributed to load_robot's caller by default."""
     for n in notes:
-        warnings.warn(n, FittedModelWarning, stacklevel=3)
+        warnings.warn(n, FittedModelWarning, stacklevel=stacklevel)
 
 
 def add_effect(effects: EffectSet, e, robot, where: str = "effect") -> str | None:

@@ -53,7 +53,8 @@ def write(report: dict, out: str | Path, robot=None, rerun: bool = True) -> Path
     out.mkdir(parents=True, exist_ok=True)
     replays = report.pop("_replays", None)
     atomic_write_json(out / "report.json", jsonable(report))
-    if report.get("_fitted") is not None and robot is not None:  # the model as fitted: model.toml, fitted.xml
+    fitted = report.get("_fitted") is not None and robot is not None
+    if fitted:  # the model as fitted: model.toml, fitted.xml
         from .fitted_model import write_fitted_files
         write_fitted_files(report["_fitted"], out, robot)
     pngs = []
@@ -61,7 +62,7 @@ def write(report: dict, out: str | Path, robot=None, rerun: bool = True) -> Path
         pngs = _plots(report, replays, out)
         if rerun and robot is not None:
             _rrd(report, replays, out, robot)
-    atomic_write_text(out / "report.md", _markdown(report, pngs))
+    atomic_write_text(out / "report.md", _markdown(report, pngs, fitted))
     if replays:
         report["_replays"] = replays
     return out / "report.json"
@@ -162,8 +163,11 @@ def _rrd(report, replays, out: Path, robot):
     atomic_save(out / "doctor.rrd", save)
 
 
-def _markdown(report, pngs) -> str:
+def _markdown(report, pngs, fitted: bool = False) -> str:
     lines = [f"# pneumasim doctor report — {report['model']}", "", "```", summary(report), "```", ""]
+    if fitted:
+        lines += [f"The model as fitted: [model.toml](model.toml) (`load_robot(\"{report['model']}\", "
+                  "fitted=...)`, `pneumasim run SCENARIO --fitted`) and [fitted.xml](fitted.xml) (plain MuJoCo).", ""]
     lines += ["## Findings", ""]
     if report["findings"]:
         lines += ["| effect | where | regime | parameters | held-out NRMSE before → after | in the regime | inclusion |",
