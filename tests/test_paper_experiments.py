@@ -136,3 +136,13 @@ def test_real_bench_friction_predicts_a_held_out_pressure(out):
     assert m["heldout_nrmse_median"] < 0.5 * m["nominal_nrmse_median"]  # friction explains most of F - pA
     assert m["in_file_nrmse_median"] <= m["heldout_nrmse_median"]       # a prediction is no better than a fit
     assert m["heldout_nrmse_median_interpolation"] < m["heldout_nrmse_median_extrapolation"]
+
+
+def test_jetpipe_servo_rate_timing_assumptions(out):
+    m = _fast("jetpipe_servo_rate", out)
+    # at 70 Hz the output delay decides the error: a whole-period delay nearly destabilises the loop
+    assert m["max_err_n_70hz_one_tick"] > 10.93 > m["max_err_n_70hz_fixed_1ms"] > m["max_err_n_70hz_no_delay"] * 0.9
+    # at 500 Hz the timing hardly matters
+    assert abs(m["max_err_n_500hz_one_tick"] - m["max_err_n_500hz_no_delay"]) < 0.3
+    assert 0.0 < m["calibrated_delay_fraction_70hz"] < 1.0
+    assert m["predicted_max_err_n_500hz_same_time"] > m["predicted_max_err_n_500hz_same_fraction"]
