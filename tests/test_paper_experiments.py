@@ -146,3 +146,28 @@ def test_jetpipe_servo_rate_timing_assumptions(out):
     assert abs(m["max_err_n_500hz_one_tick"] - m["max_err_n_500hz_no_delay"]) < 0.3
     assert 0.0 < m["calibrated_delay_fraction_70hz"] < 1.0
     assert m["predicted_max_err_n_500hz_same_time"] > m["predicted_max_err_n_500hz_same_fraction"]
+
+
+def test_humanoid_tubes_follow_the_body_and_carry_volume_and_delay(tmp_path):
+    import math
+
+    from pneumatics.effects.tubes import load_tube_layout, tube_lengths, tube_line_dynamics
+    from pneumatics.robot import load_robot
+
+    robot = load_robot("humanoid38")
+    layout = load_tube_layout(models.folder("humanoid38") / "tubes.toml")
+    lengths = tube_lengths(robot, layout)
+    assert set(lengths) == set(robot.actuator_names)
+    assert all(v >= layout.offboard_length_m for v in lengths.values())
+    for name in robot.actuator_names:
+        if name.startswith("left_"):  # the right side mirrors the left
+            assert lengths[name] == pytest.approx(lengths["right_" + name[5:]], abs=1e-6)
+    assert lengths["left_wrist_pitch"] > lengths["left_elbow"] > lengths["left_shoulder_pitch"] - 0.2
+    assert lengths["left_toe"] > lengths["left_knee"] > lengths["left_hip_yaw"]
+    line = tube_line_dynamics(robot, layout)["left_knee.a"]
+    assert line["delay_s"] == pytest.approx(lengths["left_knee"] / 343.0)
+    assert line["volume_m3"] == pytest.approx(math.pi / 4 * 2.5e-3 ** 2 * lengths["left_knee"])
+    bad = tmp_path / "tubes.toml"
+    bad.write_text("[tubes]\noffboard_length_m = -1\n")
+    with pytest.raises(PneumasimError, match=r"tubes.toml: \[tubes\] offboard_length_m"):
+        load_tube_layout(bad)
