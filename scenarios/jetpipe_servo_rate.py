@@ -13,7 +13,9 @@ controller timing; the same plant and gains run under each, at 70 and 500 Hz:
 * ``fixed_1ms``  -- ZOH, output a fixed 1 ms after its sample, whatever the rate (a
   computation that takes 1 ms: the delay does not grow with the period);
 * ``one_tick_antialias`` / ``no_delay_antialias`` -- as above with a first-order analogue
-  anti-alias filter on the force signal at half the servo rate (its Nyquist frequency).
+  anti-alias filter on the force signal at half the servo rate (its Nyquist frequency);
+* ``proportional_one_tick`` / ``proportional_no_delay`` -- the paper's text says "a
+  proportional feedback gain of 20": proportional control alone (Fig. 12, no feedforward).
 
 Metrics ``max_err_n_<rate>hz_<assumption>``; ``best_assumption_70hz``: the assumption whose
 70 Hz error is closest to the paper's 10.93 N, ``..._500hz`` likewise for 2.37 N.
@@ -23,7 +25,8 @@ unknown: swept from 0 to one period at 70 Hz, ``calibrated_delay_fraction_70hz``
 fraction of a period (and ``calibrated_delay_ms_70hz`` the time) at which the 70 Hz error
 equals the paper's (a calibration).  Carried to 500 Hz as the same fraction of the period
 (``predicted_max_err_n_500hz_same_fraction``) or as the same time
-(``predicted_max_err_n_500hz_same_time``), it predicts the 500 Hz error.
+(``predicted_max_err_n_500hz_same_time``), it predicts the 500 Hz error.  The same with
+proportional control alone: the metrics with ``_proportional``.
 """
 from __future__ import annotations
 
@@ -42,9 +45,11 @@ SUMMARY = "Fig. 15 gap: 7 Hz tracking at 70 / 500 Hz servo under each controller
 
 PAPER_MAX_ERR_N = {70.0: 10.93, 500.0: 2.37}
 KP, FREQ_HZ, AMPLITUDE_N = 20.0, 7.0, 5.0
-#: assumption -> (delay in servo ticks or None, fixed delay [s] or None, anti-alias filter)
-ASSUMPTIONS = {"one_tick": (1, None, False), "no_delay": (0, None, False), "fixed_1ms": (0, 1e-3, False),
-               "one_tick_antialias": (1, None, True), "no_delay_antialias": (0, None, True)}
+#: assumption -> (delay in servo ticks, fixed delay [s] or None, anti-alias filter, feedforward)
+ASSUMPTIONS = {"one_tick": (1, None, False, True), "no_delay": (0, None, False, True),
+               "fixed_1ms": (0, 1e-3, False, True), "one_tick_antialias": (1, None, True, True),
+               "no_delay_antialias": (0, None, True, True), "proportional_one_tick": (1, None, False, False),
+               "proportional_no_delay": (0, None, False, False)}
 
 
 class TimedLoop:
@@ -88,11 +93,12 @@ class TimedLoop:
         return np.array([self._out])
 
 
-def track(sim, curve, rate_hz: float, assumption, duration_s: float):
+def track(sim, curve, rate_hz: float, assumption, duration_s: float, feedforward: bool = True):
     """(recording, max |error| after the first period) of one timing assumption (a name of
-    :data:`ASSUMPTIONS`, or a fixed output delay [s] with no filter)."""
-    ticks, fixed, antialias = ASSUMPTIONS[assumption] if isinstance(assumption, str) else (0, assumption, False)
-    inner = ForceCfg(kp=KP, rate_hz=rate_hz, delay_samples=ticks,
+    :data:`ASSUMPTIONS`, or a fixed output delay [s] with no filter and ``feedforward``)."""
+    ticks, fixed, antialias, feedforward = (ASSUMPTIONS[assumption] if isinstance(assumption, str)
+                                            else (0, assumption, False, feedforward))
+    inner = ForceCfg(kp=KP, rate_hz=rate_hz, delay_samples=ticks, feedforward=feedforward,
                      static_gain_n_per_a=curve.slope_n_per_a(MEAN_N)).build(sine_ref(AMPLITUDE_N, FREQ_HZ),
                                                                            curve.inverse)
     ctl = TimedLoop(inner, fixed, rate_hz / 2 if antialias else None)
@@ -106,7 +112,7 @@ def run(ctx):
     sim = JetpipeSim()
     curve = static_curve(sim.cfg)
     duration = 0.6 if ctx.fast else 1.5
-    names = ("one_tick", "no_delay", "fixed_1ms") if ctx.fast else tuple(ASSUMPTIONS)
+    names = ("one_tick", "no_delay", "fixed_1ms", "proportional_no_delay") if ctx.fast else tuple(ASSUMPTIONS)
     metrics, recs = {}, {}
     for rate in PAPER_MAX_ERR_N:
         for name in names:
@@ -116,14 +122,20 @@ def run(ctx):
         metrics[f"best_assumption_{rate:.0f}hz"] = best
         metrics[f"best_max_err_n_{rate:.0f}hz"] = metrics[f"max_err_n_{rate:.0f}hz_{best}"]
     fractions = np.linspace(0.0, 1.0, 5 if ctx.fast else 11)
-    errs = np.array([track(sim, curve, 70.0, fr / 70.0, duration)[1] for fr in fractions])
-    frac = calibrated_fraction(fractions, errs, PAPER_MAX_ERR_N[70.0])
-    if frac is not None:
-        metrics["calibrated_delay_fraction_70hz"] = frac
-        metrics["calibrated_delay_ms_70hz"] = 1000 * frac / 70.0
-        metrics["predicted_max_err_n_500hz_same_fraction"] = track(sim, curve, 500.0, frac / 500.0, duration)[1]
-        metrics["predicted_max_err_n_500hz_same_time"] = track(sim, curve, 500.0, frac / 70.0, duration)[1]
-    _plot(ctx, recs, metrics, names, (fractions, errs))
+    sweeps = {}
+    for ff, suffix in ((True, ""), (False, "_proportional")):
+        errs = np.array([track(sim, curve, 70.0, fr / 70.0, duration, ff)[1] for fr in fractions])
+        sweeps[suffix] = errs
+        frac = calibrated_fraction(fractions, errs, PAPER_MAX_ERR_N[70.0])
+        if frac is None:
+            continue
+        metrics[f"calibrated_delay_fraction_70hz{suffix}"] = frac
+        metrics[f"calibrated_delay_ms_70hz{suffix}"] = 1000 * frac / 70.0
+        metrics[f"predicted_max_err_n_500hz_same_fraction{suffix}"] = track(sim, curve, 500.0, frac / 500.0,
+                                                                             duration, ff)[1]
+        metrics[f"predicted_max_err_n_500hz_same_time{suffix}"] = track(sim, curve, 500.0, frac / 70.0,
+                                                                         duration, ff)[1]
+    _plot(ctx, recs, metrics, names, (fractions, sweeps))
     return metrics
 
 
@@ -158,17 +170,19 @@ def _plot(ctx, recs, metrics, names, sweep):
     axes[2].set_ylabel("max |error| [N] (dashed: paper)")
     axes[2].set_yscale("log")
     axes[2].legend(fontsize=8)
-    fractions, errs = sweep
-    axes[3].plot(fractions, errs, "o-", label="70 Hz, output delay swept")
+    fractions, sweeps = sweep
     axes[3].axhline(PAPER_MAX_ERR_N[70.0], color="k", ls="--", lw=0.9, label="paper, 70 Hz")
-    if "calibrated_delay_fraction_70hz" in metrics:
-        axes[3].axvline(metrics["calibrated_delay_fraction_70hz"], color="C3", ls=":",
-                        label=f"calibrated: {metrics['calibrated_delay_ms_70hz']:.1f} ms")
+    for i, (suffix, errs) in enumerate(sweeps.items()):
+        law = "proportional" if suffix else "feedforward + P"
+        axes[3].plot(fractions, errs, "o-", color=f"C{i}", label=f"{law}: output delay swept")
+        if f"calibrated_delay_fraction_70hz{suffix}" in metrics:
+            axes[3].axvline(metrics[f"calibrated_delay_fraction_70hz{suffix}"], color=f"C{i}", ls=":",
+                            label=f"calibrated: {metrics[f'calibrated_delay_ms_70hz{suffix}']:.1f} ms")
     axes[3].set_xlabel("output delay [fraction of the 70 Hz period]")
     axes[3].set_ylabel("max |error| [N]")
     axes[3].grid(alpha=0.3)
     axes[3].legend(fontsize=8)
-    fig.suptitle("Fig. 15: 7 Hz, 45 ± 5 N, k_p = 20, feedforward -- controller timing assumptions")
+    fig.suptitle("Fig. 15: 7 Hz, 45 ± 5 N, k_p = 20 -- controller timing assumptions (feedforward + P unless named)")
     fig.tight_layout()
     ctx.savefig(fig, "servo_rate_assumptions.png")
 

@@ -146,6 +146,8 @@ def test_jetpipe_servo_rate_timing_assumptions(out):
     assert abs(m["max_err_n_500hz_one_tick"] - m["max_err_n_500hz_no_delay"]) < 0.3
     assert 0.0 < m["calibrated_delay_fraction_70hz"] < 1.0
     assert m["predicted_max_err_n_500hz_same_time"] > m["predicted_max_err_n_500hz_same_fraction"]
+    # proportional alone keeps an offset at any servo rate (Fig. 18)
+    assert m["max_err_n_500hz_proportional_no_delay"] > m["max_err_n_500hz_no_delay"] + 0.5
 
 
 def test_humanoid_tubes_follow_the_body_and_carry_volume_and_delay(tmp_path):
