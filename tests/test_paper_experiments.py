@@ -173,3 +173,11 @@ def test_humanoid_tubes_follow_the_body_and_carry_volume_and_delay(tmp_path):
     bad.write_text("[tubes]\noffboard_length_m = -1\n")
     with pytest.raises(PneumasimError, match=r"tubes.toml: \[tubes\] offboard_length_m"):
         load_tube_layout(bad)
+
+
+def test_jetpipe_jet_statics(out):
+    m = _fast("jetpipe_jet_statics", out)
+    assert m["position_loop_gap_mm"] == pytest.approx(0.16, abs=0.005)  # 8 % of the 1 mm range (Fig. 6)
+    assert m["gap_spread_mm"] < 0.05                                     # "almost constant" mid-range
+    assert m["force_constant_n_per_a"] == pytest.approx(1.946, rel=1e-6)  # Fig. 6(c): linear, k_m
+    assert 0.95 < m["position_range_mm"] < 1.0                           # saturates at +-0.5 mm
