@@ -136,4 +136,5 @@ def test_tracking_fast_scenario(tmp_path):
     assert m["median_err_pct_range"] < 4.0 and 0 <= m["lag_ms"] <= 150     # measured 2.3 %, 30 ms
     assert m["median_err_pct_range_pidf"] < 8.0                                # measured 4.7 %
     assert m["calib_area_rel_error_median"] < 0.05
+    assert m["predicted_lag_ms_tubes"] > m["lag_ms_refined_pidf"]              # tubes add lag (paper §VI-A)
     assert (tmp_path / "tracking.png").stat().st_size > 10_000

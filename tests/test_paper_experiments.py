@@ -136,3 +136,48 @@ def test_real_bench_friction_predicts_a_held_out_pressure(out):
     assert m["heldout_nrmse_median"] < 0.5 * m["nominal_nrmse_median"]  # friction explains most of F - pA
     assert m["in_file_nrmse_median"] <= m["heldout_nrmse_median"]       # a prediction is no better than a fit
     assert m["heldout_nrmse_median_interpolation"] < m["heldout_nrmse_median_extrapolation"]
+
+
+def test_jetpipe_servo_rate_timing_assumptions(out):
+    m = _fast("jetpipe_servo_rate", out)
+    # at 70 Hz the output delay decides the error: a whole-period delay nearly destabilises the loop
+    assert m["max_err_n_70hz_one_tick"] > 10.93 > m["max_err_n_70hz_fixed_1ms"] > m["max_err_n_70hz_no_delay"] * 0.9
+    # at 500 Hz the timing hardly matters
+    assert abs(m["max_err_n_500hz_one_tick"] - m["max_err_n_500hz_no_delay"]) < 0.3
+    assert 0.0 < m["calibrated_delay_fraction_70hz"] < 1.0
+    assert m["predicted_max_err_n_500hz_same_time"] > m["predicted_max_err_n_500hz_same_fraction"]
+    # proportional alone keeps an offset at any servo rate (Fig. 18)
+    assert m["max_err_n_500hz_proportional_no_delay"] > m["max_err_n_500hz_no_delay"] + 0.5
+
+
+def test_humanoid_tubes_follow_the_body_and_carry_volume_and_delay(tmp_path):
+    import math
+
+    from pneumatics.effects.tubes import load_tube_layout, tube_lengths, tube_line_dynamics
+    from pneumatics.robot import load_robot
+
+    robot = load_robot("humanoid38")
+    layout = load_tube_layout(models.folder("humanoid38") / "tubes.toml")
+    lengths = tube_lengths(robot, layout)
+    assert set(lengths) == set(robot.actuator_names)
+    assert all(v >= layout.offboard_length_m for v in lengths.values())
+    for name in robot.actuator_names:
+        if name.startswith("left_"):  # the right side mirrors the left
+            assert lengths[name] == pytest.approx(lengths["right_" + name[5:]], abs=1e-6)
+    assert lengths["left_wrist_pitch"] > lengths["left_elbow"] > lengths["left_shoulder_pitch"] - 0.2
+    assert lengths["left_toe"] > lengths["left_knee"] > lengths["left_hip_yaw"]
+    line = tube_line_dynamics(robot, layout)["left_knee.a"]
+    assert line["delay_s"] == pytest.approx(lengths["left_knee"] / 343.0)
+    assert line["volume_m3"] == pytest.approx(math.pi / 4 * 2.5e-3 ** 2 * lengths["left_knee"])
+    bad = tmp_path / "tubes.toml"
+    bad.write_text("[tubes]\noffboard_length_m = -1\n")
+    with pytest.raises(PneumasimError, match=r"tubes.toml: \[tubes\] offboard_length_m"):
+        load_tube_layout(bad)
+
+
+def test_jetpipe_jet_statics(out):
+    m = _fast("jetpipe_jet_statics", out)
+    assert m["position_loop_gap_mm"] == pytest.approx(0.16, abs=0.005)  # 8 % of the 1 mm range (Fig. 6)
+    assert m["gap_spread_mm"] < 0.05                                     # "almost constant" mid-range
+    assert m["force_constant_n_per_a"] == pytest.approx(1.946, rel=1e-6)  # Fig. 6(c): linear, k_m
+    assert 0.95 < m["position_range_mm"] < 1.0                           # saturates at +-0.5 mm
