@@ -23,10 +23,7 @@ and the mismatch finder tests the same physics as hypotheses
 | backlash | play between cylinder and link, dead zone (`backlash.py`, Nordin & Gutman 2002) | drive hinge + limited fixed tendon in MuJoCo | yes (the piston leads the link by gap/2 on the side it pushes) |
 """
 
-#: every family name the doctor can report (DESIGN.md; extend, never rename)
-VOCABULARY = (
-    "coulomb_friction", "stiction", "viscous_friction", "valve_leak", "piston_leak",
-    "valve_hysteresis", "valve_lag", "line_dynamics", "heat_transfer", "pressure_sensor_offset",
-    "angle_sensor_offset", "supply_droop", "end_stop", "backlash", "external_leak",
-    "force_sensor_offset",
-)
+from .registry import FAMILIES, get_family
+
+#: every family name the doctor can report (DESIGN.md; extend, never rename): the registry's
+VOCABULARY = tuple(FAMILIES)

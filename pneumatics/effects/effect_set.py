@@ -10,10 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import UnknownNameError
-
-END_STOP_TIMECONST_S = 0.005
-"""MuJoCo solref time constant of an end-stop bumper [s]: a stiff rubber pad, critically damped
-(about 0.01 rad of give under full pressure on arm2; MuJoCo asks for at least 2 timesteps)."""
+from .end_stop import END_STOP_TIMECONST_S
 
 
 @dataclass
