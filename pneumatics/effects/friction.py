@@ -82,6 +82,7 @@ class _JointFriction(Family):
 
 class CoulombFriction(_JointFriction):
     name = "coulomb_friction"
+    plants = ("valve_arm", "bench_cylinder")  # the bench's rod seal: seal_friction.py
     forms = {"coulomb": CoulombParams}
     physics = "F_c tanh(qd / v_eps) against the motion"
 
@@ -114,6 +115,7 @@ class Stiction(_JointFriction):
 
 class ViscousFriction(_JointFriction):
     name = "viscous_friction"
+    plants = ("valve_arm", "bench_cylinder")
     forms = {"linear": ViscousParams}
     physics = "b qd against the motion"
 

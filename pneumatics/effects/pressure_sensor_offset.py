@@ -34,7 +34,7 @@ class PressureSensorOffset(Family):
     sources = "Doebelin, Measurement Systems §3.2"
     simulator = "added to the observed pressures"
     doctor = "pressure_replay"
-    plants = ("valve_arm", "jetpipe")
+    plants = ("valve_arm", "bench_chamber", "jetpipe")
 
     def effect_set_entry(self, params):
         return {"pressure_offset_pa": params.offset_pa}

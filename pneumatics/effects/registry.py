@@ -43,3 +43,17 @@ def get_family(name: str) -> Family:
 def families_of(plant: str) -> list[Family]:
     """The families a plant kind simulates (``valve_arm``, ``bench_chamber``, ``bench_cylinder``, ``jetpipe``)."""
     return [f for f in FAMILIES.values() if plant in f.plants]
+
+
+def markdown_table() -> str:
+    """The families as a Markdown table (docs/effects.md holds it; a test keeps the two equal)."""
+    rows = ["| family | place | forms: parameters [unit] | law | simulator (arm) | doctor (arm) | plants | sources |",
+            "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for f in FAMILIES.values():
+        doctor = f.doctor.replace("_", " ") if f.doctor else "—"
+        simulator = f.simulator or "—"
+        if f.roundtrip_gap:
+            doctor += f" (no arm2 round trip: {f.roundtrip_gap})"
+        rows.append(f"| `{f.name}` | {f.place_kind} | {f.describe()} | {f.physics} | {simulator} | {doctor} | "
+                    f"{', '.join(f.plants)} | {f.sources} |")
+    return "\n".join(rows) + "\n"

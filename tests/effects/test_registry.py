@@ -1,0 +1,84 @@
+"""The registry of effect families: names, lookups, parameters with units, and the docs table."""
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pneumatics.effects import VOCABULARY
+from pneumatics.effects.effect_set import EffectSet
+from pneumatics.effects.family import PLACE_KINDS, place_names
+from pneumatics.effects.registry import FAMILIES, families_of, get_family, markdown_table
+from pneumatics.errors import ConfigError, UnknownNameError
+
+DESIGN_VOCABULARY = {"coulomb_friction", "stiction", "viscous_friction", "valve_leak", "piston_leak", "valve_hysteresis",
+                     "valve_lag", "line_dynamics", "heat_transfer", "pressure_sensor_offset", "angle_sensor_offset",
+                     "supply_droop", "end_stop", "backlash", "external_leak", "force_sensor_offset"}
+
+
+def test_the_registry_holds_the_design_vocabulary_once_each():
+    assert set(VOCABULARY) == DESIGN_VOCABULARY and len(VOCABULARY) == len(DESIGN_VOCABULARY)
+    for name, fam in FAMILIES.items():
+        assert fam.name == name and fam.place_kind in PLACE_KINDS and fam.forms and fam.sources and fam.physics
+
+
+def test_an_unknown_family_or_form_names_the_valid_ones():
+    with pytest.raises(UnknownNameError, match="valid: angle_sensor_offset, backlash"):
+        get_family("valve_leek")
+    with pytest.raises(UnknownNameError, match="valid: laminar, orifice"):
+        get_family("external_leak").params({"leak_area_m2": 1e-8}, "capillary")
+
+
+def test_parameters_are_checked_against_their_units():
+    lag = get_family("valve_lag")
+    assert lag.params({"time_constant_s": 0.03}).time_constant_s == 0.03
+    with pytest.raises(ConfigError, match="time_constant_s = 30 is outside"):
+        lag.params({"time_constant_s": 30.0})  # 30 "s": milliseconds typed as seconds
+    with pytest.raises(ConfigError, match="did you mean 'time_constant_s'"):
+        lag.params({"time_constant_ms": 30.0})
+
+
+def test_every_arm_family_switches_its_effect_on_in_an_effect_set(arm2):
+    rng = np.random.default_rng(0)
+    for fam in families_of("valve_arm"):
+        place = place_names(arm2, fam.place_kind)[0]
+        effects = EffectSet()
+        fam.add_to(effects, place, fam.draw(rng))
+        assert not effects.empty, fam.name
+
+
+def test_friction_terms_at_one_joint_add_up():
+    effects = EffectSet()
+    get_family("coulomb_friction").add_to(effects, "elbow", get_family("coulomb_friction").params({"coulomb_nm": 0.1}))
+    get_family("viscous_friction").add_to(effects, "elbow",
+                                          get_family("viscous_friction").params({"viscous_nm_s_per_rad": 0.2}))
+    assert effects.friction == {"elbow": {"coulomb_nm": 0.1, "viscous_nm_s": 0.2}}
+
+
+def test_scaling_keeps_shapes_and_moves_an_end_stop_towards_the_margin():
+    st = get_family("stiction")
+    half = st.scaled(st.params({"coulomb_nm": 0.04, "breakaway_extra_nm": 0.1, "stribeck_rad_s": 0.1}), 0.5)
+    assert (half.coulomb_nm, half.breakaway_extra_nm, half.stribeck_rad_s) == (0.02, 0.05, 0.1)
+    stop = get_family("end_stop")
+    moved = stop.scaled(stop.params({"side": "lower", "intrusion_rad": 0.2}, "soft_limit"), 0.5)
+    assert moved.side == "lower" and np.radians(5.0) < moved.intrusion_rad < 0.2
+
+
+def test_the_case_makers_use_registered_names():
+    from scenarios._cases import BENCHMARK_FAMILIES
+    from scenarios._cases import FAMILIES as ARM_CASES
+    from scenarios._jetpipe_cases import FAMILIES as JETPIPE_CASES
+    from scenarios._variantsim.effects import FAMILIES as VARIANT_CASES
+
+    assert set(ARM_CASES) == {f.name for f in families_of("valve_arm")}
+    assert "end_stop" not in BENCHMARK_FAMILIES
+    assert all("jetpipe" in get_family(n).plants for n in JETPIPE_CASES)
+    assert set(VARIANT_CASES) <= set(VOCABULARY)
+
+
+def test_the_docs_table_is_the_registrys():
+    text = (Path(__file__).resolve().parents[2] / "docs" / "effects.md").read_text()
+    table = text[text.index("| family | place |"):]
+    assert table == markdown_table()
+    for name in VOCABULARY:
+        assert re.search(rf"^\| `{name}` \|", table, re.M)
