@@ -82,3 +82,24 @@ def test_the_docs_table_is_the_registrys():
     assert table == markdown_table()
     for name in VOCABULARY:
         assert re.search(rf"^\| `{name}` \|", table, re.M)
+
+
+def test_an_effect_set_switches_a_family_on_by_name_with_checked_units():
+    effects = EffectSet().add("valve_lag", "elbow.b", {"time_constant_s": 0.03}).add(
+        "supply_droop", "all", {"droop_pa_per_kg_s": 5e7})
+    assert effects.valve_lag_s == {"elbow.b": 0.03} and effects.supply_droop_pa_per_kg_s == 5e7
+    with pytest.raises(ConfigError, match="leak_area_m2"):
+        EffectSet().add("external_leak", "elbow.a", {"leak_area_m2": 2.0})  # 2 m^2: mm^2 typed as m^2
+
+
+def test_the_doctors_hypotheses_report_the_families_parameters(arm2):
+    """Every parameter a hypothesis fits is a field of one form of its family, so a finding's
+    parameters are the family definition's (and go back into the simulator through it)."""
+    import dataclasses
+
+    from identification.hypotheses import mechanical_hypotheses, pneumatic_hypotheses
+
+    for h in pneumatic_hypotheses(arm2) + mechanical_hypotheses(arm2):
+        names = [p[0] for p in h.params] + list(h.fixed)
+        fields = [{f.name for f in dataclasses.fields(cls)} for cls in get_family(h.family).forms.values()]
+        assert any(set(names) <= f for f in fields), (h.family, names)
