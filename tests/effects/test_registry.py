@@ -103,3 +103,48 @@ def test_the_doctors_hypotheses_report_the_families_parameters(arm2):
         names = [p[0] for p in h.params] + list(h.fixed)
         fields = [{f.name for f in dataclasses.fields(cls)} for cls in get_family(h.family).forms.values()]
         assert any(set(names) <= f for f in fields), (h.family, names)
+
+
+def _every_form_at_small_values():
+    """(family, form, params) for every form of every arm family, each magnitude at 1e-9."""
+    import dataclasses
+
+    for fam in families_of("valve_arm"):
+        for form, cls in fam.forms.items():
+            values = {f.name: 1e-9 for f in dataclasses.fields(cls) if f.metadata.get("magnitude", True)}
+            yield fam, form, cls(**values)
+
+
+def test_every_effect_set_field_is_written_by_a_family():
+    """No effect reaches the simulator except through a family definition."""
+    import dataclasses
+
+    written = set()
+    for fam, form, params in _every_form_at_small_values():
+        if (fam.name, form) != ("end_stop", "spring_damper"):  # the doctor's form of the bumper
+            written |= set(fam.effect_set_entry(params))
+    assert written == {f.name for f in dataclasses.fields(EffectSet)} - {"valve_leak_width_v"}
+
+
+def _same(a, b) -> bool:
+    if a is None or b is None:
+        return a is b
+    return np.array_equal(a, b, equal_nan=True)
+
+
+def test_every_effect_field_of_the_doctors_chamber_model_is_filled_by_a_family(arm2):
+    """No effect reaches the doctor's pressure replays except through a family definition."""
+    import dataclasses
+
+    from identification.pneumatic import PneumaticMods
+
+    nominal = PneumaticMods.nominal(arm2.tables.n_chambers)
+    filled = set()
+    for fam, form, params in _every_form_at_small_values():
+        if fam.doctor != "pressure_replay":
+            continue
+        place = place_names(arm2, fam.place_kind)[0]
+        mods = fam.apply_to_mods(nominal, arm2, place, params)
+        filled |= {f.name for f in dataclasses.fields(mods) if not _same(getattr(mods, f.name), getattr(nominal, f.name))}
+    calibration = {"supply_scale", "exhaust_scale", "dead_volume_scale", "valve_leak_width_v"}
+    assert filled == {f.name for f in dataclasses.fields(PneumaticMods)} - calibration
