@@ -33,6 +33,8 @@ from pneumatics.sim import Simulation
 
 SECONDS = 3.0
 HORIZON = 30  # samples per pressure replay (0.3 s)
+#: heat_transfer steps in Python (about 10x slower): a shorter recording keeps it at a few seconds
+SECONDS_OF = {"heat_transfer": 2.0}
 
 
 def record(robot, family=None, place=None, params=None, seconds=SECONDS, seed=3):
@@ -87,7 +89,7 @@ PRESSURE_CASES = [
 def test_the_pressure_replay_of_a_family_reproduces_the_simulator(arm2, family, form, place, values, tol_pa, ratio):
     fam = get_family(family)
     params = fam.params(values, form)
-    exp = record(arm2, family, place, params)
+    exp = record(arm2, family, place, params, seconds=SECONDS_OF.get(family, SECONDS))
     nominal = PneumaticMods.nominal(arm2.tables.n_chambers)
     with_effect = pressure_error_pa(exp, fam.apply_to_mods(nominal, arm2, place, params))
     without = pressure_error_pa(exp, nominal)
