@@ -17,8 +17,7 @@ import numpy as np
 from controllers.pid import ARM2_PIDF
 from controllers.reference import hand_moved
 from pneumatics.effects.effect_set import EffectSet
-from pneumatics.effects.end_stop import REFERENCE_MARGIN_RAD
-from pneumatics.effects.family import where_of
+from pneumatics.effects.family import Family, where_of
 from pneumatics.effects.registry import families_of, get_family
 from pneumatics.io import atomic_write_json
 from pneumatics.robot import load_robot
@@ -48,27 +47,38 @@ BENCHMARK_FAMILIES = [f for f in FAMILIES if get_family(f).benchmark_ok]
 _PLACES = {"joint": JOINTS, "chamber": CHAMBERS, "actuator": JOINTS, "supply": ["all"]}
 
 
-def draw_effect(family: str, rng: np.random.Generator) -> tuple[dict, EffectSet]:
-    """One hidden effect of ``family``: a place, then parameters from the family's ranges."""
+def draw(family: str, rng: np.random.Generator) -> tuple[Family, str, object]:
+    """One hidden effect of ``family``: (its family, a place, parameters from the family's ranges)."""
     fam = get_family(family)
     places = _PLACES[fam.place_kind]
     place = places[rng.integers(0, len(places))]
-    params = fam.draw(rng)
-    eff = EffectSet()
-    fam.add_to(eff, place, params)
-    return {"family": family, "where": where_of(fam.place_kind, place),
-            "parameters": _plain(fam.effect_set_entry(params))}, eff
+    return fam, place, fam.draw(rng)
 
 
-def merge(effects: list[EffectSet]) -> EffectSet:
+def effects_of(drawn: list, k: float = 1.0) -> EffectSet:
+    """The drawn effects [(family, place, parameters)] with every magnitude times k (Family.scaled:
+    shapes such as Stribeck velocities keep their value, an end stop moves out towards the
+    reference margin instead, beyond which the arm never goes)."""
     out = EffectSet()
-    for e in effects:
-        for f in dataclasses.fields(EffectSet):
-            v = getattr(e, f.name)
-            if isinstance(v, dict):
-                getattr(out, f.name).update(v)
-        out.supply_droop_pa_per_kg_s += e.supply_droop_pa_per_kg_s
+    for fam, place, params in drawn:
+        fam.add_to(out, place, fam.scaled(params, k))
     return out
+
+
+def truth_of(drawn_effect, k: float = 1.0) -> dict:
+    """The truth.json entry of one drawn effect at scale k: family, where, EffectSet parameters."""
+    fam, place, params = drawn_effect
+    return {"family": fam.name, "where": where_of(fam.place_kind, place),
+            "parameters": _plain(fam.effect_set_entry(fam.scaled(params, k))), "scale": k}
+
+
+def draw_effect(family: str, rng: np.random.Generator) -> tuple[dict, EffectSet]:
+    """One hidden effect of ``family``: its truth entry (without scale) and an EffectSet holding it."""
+    fam, place, params = draw(family, rng)
+    effects = EffectSet()
+    fam.add_to(effects, place, params)
+    return {"family": family, "where": where_of(fam.place_kind, place),
+            "parameters": _plain(fam.effect_set_entry(params))}, effects
 
 
 def perturbed_robot(rng: np.random.Generator, fraction: float):
@@ -94,29 +104,6 @@ def perturbed_robot(rng: np.random.Generator, fraction: float):
     return robot, factors
 
 
-def scale_value(key: str, v: float, k: float) -> float:
-    """One effect parameter with its magnitude scaled by k: Stribeck velocities keep their
-    value; an end stop moves out towards the reference margin (beyond which the arm never goes,
-    so halving the intrusion itself would hide the stop altogether)."""
-    if key == "stribeck_rad_s":
-        return v
-    if key.endswith("_intrusion_rad"):
-        return REFERENCE_MARGIN_RAD + (v - REFERENCE_MARGIN_RAD) * k
-    return v * k
-
-
-def scaled(effects: EffectSet, k: float) -> EffectSet:
-    """Every effect magnitude times k (Stribeck velocities and widths unchanged)."""
-    out = EffectSet()
-    for f in dataclasses.fields(EffectSet):
-        v = getattr(effects, f.name)
-        if isinstance(v, dict):
-            getattr(out, f.name).update({p: ({kk: scale_value(kk, vv, k) for kk, vv in x.items()}
-                                             if isinstance(x, dict) else x * k) for p, x in v.items()})
-    out.supply_droop_pa_per_kg_s = effects.supply_droop_pa_per_kg_s * k
-    return out
-
-
 def concealment_r2(robot, rec) -> dict:
     """Held-out R^2 per channel of the true model *without* the effects (coupled replays
     restarted every second): >= 0.9 everywhere means aggregate statistics hide the effect."""
@@ -136,26 +123,18 @@ def make_case(out: Path, seed: int, families: list[str], *, fraction: float = 0.
     still reaches R^2 >= 0.9 on every channel of the held-out recording."""
     rng = np.random.default_rng(seed)
     name = name or f"case_{seed}"
-    truths, effs = [], []
-    for fam in families:
-        t, e = draw_effect(fam, rng)
-        truths.append(t)
-        effs.append(e)
-    drawn = merge(effs)
+    drawn = [draw(fam, rng) for fam in families]
     robot, factors = perturbed_robot(rng, fraction)
     scale, history = 1.0, []
     for _ in range(5):
-        effects = scaled(drawn, scale)
+        effects = effects_of(drawn, scale)
         recs = _record(robot, effects, seed, seconds, heldout_seconds)
         r2 = concealment_r2(robot, recs["heldout"]) if (conceal and families) else {}
         history.append({"scale": scale, "min_r2": min(r2.values()) if r2 else None})
         if not r2 or min(r2.values()) >= 0.9:
             break
         scale *= 0.5
-    for t in truths:
-        t["scale"] = scale
-        t["parameters"] = _plain({k: ({kk: scale_value(kk, vv, scale) for kk, vv in v.items()}
-                                      if isinstance(v, dict) else v * scale) for k, v in t["parameters"].items()})
+    truths = [truth_of(d, scale) for d in drawn]
     paths = _write(out, name, recs)
     truth = {"case": name, "seed": seed, "effects": truths, "families": families or ["none"],
              "parameter_factors": factors, "perturbation_fraction": fraction, "recordings": paths,
