@@ -20,7 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .family import Family, joint_column, param
+from ..errors import ConfigError
+from .family import Family, NotOnThisSide, joint_column, param
 
 END_STOP_TIMECONST_S = 0.005
 """MuJoCo solref time constant of an end-stop bumper [s]: a stiff rubber pad, critically damped
@@ -28,6 +29,7 @@ END_STOP_TIMECONST_S = 0.005
 #: the hand-moved references keep 5 deg inside the joint limits (controllers/reference.py): an
 #: end stop scaled down moves out towards this margin, beyond which the arm never goes
 REFERENCE_MARGIN_RAD = float(np.radians(5.0))
+SIDES = ("upper", "lower")
 
 
 def penetration(q, stop, side):
@@ -48,6 +50,10 @@ class SoftLimit:
     side: str = param("upper", "which limit the bumper sits at: 'upper' or 'lower'", "-", magnitude=False)
     intrusion_rad: float = param(0.0, "how far inside the model's joint limit the bumper stops the joint",
                                  "rad", 0.0, 3.2)
+
+    def __post_init__(self):
+        if self.side not in SIDES:
+            raise ConfigError(f"effect end_stop (soft_limit).side: expected one of {', '.join(SIDES)}, got {self.side!r}")
 
 
 @dataclass(frozen=True)
@@ -72,7 +78,8 @@ class EndStop(Family):
 
     def effect_set_entry(self, params):
         if not isinstance(params, SoftLimit):
-            raise ValueError(f"{self.name}: the simulator takes the soft_limit form, got {type(params).__name__}")
+            raise NotOnThisSide(f"{self.name}: the simulator takes the soft_limit form (side, intrusion_rad), "
+                                f"got {type(params).__name__}")
         return {"end_stop": {f"{params.side}_intrusion_rad": params.intrusion_rad}}
 
     def stop_angle(self, robot, joint: str, params: SoftLimit) -> tuple[float, float]:
@@ -84,7 +91,8 @@ class EndStop(Family):
 
     def torque_balance_term(self, exp, td, joint, params):
         if not isinstance(params, SpringDamper):
-            raise ValueError(f"{self.name}: the torque balance takes the spring_damper form, got {type(params).__name__}")
+            raise NotOnThisSide(f"{self.name}: the torque balance takes the spring_damper form (stop_rad, side_sign, "
+                                f"stiffness_nm_per_rad, damping_nm_s_per_rad), got {type(params).__name__}")
         q, qd = exp.q_s[:, joint], exp.qd[:, joint]
         tau = stop_torque(q, qd, params.stop_rad, params.side_sign, params.stiffness_nm_per_rad,
                           params.damping_nm_s_per_rad)

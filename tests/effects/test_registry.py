@@ -36,6 +36,8 @@ def test_parameters_are_checked_against_their_units():
         lag.params({"time_constant_s": 30.0})  # 30 "s": milliseconds typed as seconds
     with pytest.raises(ConfigError, match="did you mean 'time_constant_s'"):
         lag.params({"time_constant_ms": 30.0})
+    with pytest.raises(ConfigError, match="side: expected one of upper, lower, got 'uper'"):
+        get_family("end_stop").params({"side": "uper", "intrusion_rad": 0.2}, "soft_limit")
 
 
 def test_every_arm_family_switches_its_effect_on_in_an_effect_set(arm2):
@@ -148,3 +150,17 @@ def test_every_effect_field_of_the_doctors_chamber_model_is_filled_by_a_family(a
         filled |= {f.name for f in dataclasses.fields(mods) if not _same(getattr(mods, f.name), getattr(nominal, f.name))}
     calibration = {"supply_scale", "exhaust_scale", "dead_volume_scale", "valve_leak_width_v"}
     assert filled == {f.name for f in dataclasses.fields(PneumaticMods)} - calibration
+
+
+def test_a_hook_a_family_does_not_have_says_so():
+    from pneumatics.effects.family import NotOnThisSide
+
+    offset = get_family("force_sensor_offset")
+    with pytest.raises(NotOnThisSide, match="no load cell"):
+        offset.add_to(EffectSet(), "elbow", offset.params({"offset_n": 1.0}))
+    stop = get_family("end_stop")
+    with pytest.raises(NotOnThisSide, match="soft_limit form"):
+        stop.effect_set_entry(stop.params({"stop_rad": 0.5, "stiffness_nm_per_rad": 100.0}, "spring_damper"))
+    lag = get_family("valve_lag")
+    with pytest.raises(NotOnThisSide, match="torque balance"):
+        lag.torque_balance_term(None, None, 0, lag.params({"time_constant_s": 0.01}))
