@@ -218,15 +218,15 @@ class Backlash(Family):
 
     def apply_to_mods(self, mods, robot, place, params):
         """PneumaticMods.backlash_rad, per actuator: the one that turns joint ``place``."""
-        acts = [robot.model.actuator(int(i)).name for i in robot.actuator_ids]
-        ids = [int(robot.model.actuator_trnid[i, 0]) for i in robot.actuator_ids]
         if place not in robot.joint_names:
             raise UnknownNameError("joint", place, robot.joint_names)
-        jid = robot.model.joint(place).id
-        if jid not in ids:
-            raise PneumasimError(f"backlash: joint {place!r} is driven by no actuator ({', '.join(acts)})")
-        arr = np.zeros(len(acts)) if mods.backlash_rad is None else np.array(mods.backlash_rad, float)
-        arr[ids.index(jid)] = params.gap_rad
+        m, jid = robot.model, robot.model.joint(place).id
+        driving = [k for k, i in enumerate(robot.actuator_ids)
+                   if int(m.actuator_trntype[i]) == int(mujoco.mjtTrn.mjTRN_JOINT) and int(m.actuator_trnid[i, 0]) == jid]
+        if not driving:
+            raise PneumasimError(f"backlash: joint {place!r} is driven by no joint-transmission actuator")
+        arr = np.zeros(len(robot.actuator_ids)) if mods.backlash_rad is None else np.array(mods.backlash_rad, float)
+        arr[driving[0]] = params.gap_rad
         return mods.copy(backlash_rad=arr)
 
     def draw(self, rng):
