@@ -4,8 +4,8 @@ A family (DESIGN.md's effect vocabulary: ``valve_lag``, ``external_leak``, ...) 
 of physics a nominal model may leave out.  Its module holds, in one place:
 
 * its **forms**: the physical laws it may take (an orifice or a laminar leak), each with a
-  parameter dataclass whose fields carry unit, plausible range and meaning
-  (:func:`pneumatics.config.spec`), named as the doctor reports them (DESIGN.md report.json);
+  parameter dataclass whose fields (:func:`param`) carry unit, plausible range, meaning and
+  whether they are a magnitude, named as the doctor reports them (DESIGN.md report.json);
 * its **law**: the numpy function of the force, torque, flow or signal it changes;
 * the **simulator hook** :meth:`Family.effect_set_entry`: what goes into an
   :class:`~pneumatics.effects.effect_set.EffectSet` at one place (:meth:`Family.add_to`);
@@ -21,7 +21,7 @@ read the arrays these hooks fill.  ``tests/effects/test_roundtrip.py`` checks, p
 a simulation with the effect and the doctor's replay of it with the same parameters agree.
 
 The pattern follows mink's tasks (one small class per file on a small abstract base) and
-mjlab's ``*Cfg`` dataclasses (a docstring per field).
+mjlab's ``*Cfg`` dataclasses (every field documented, with its unit).
 """
 from __future__ import annotations
 

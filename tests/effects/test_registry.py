@@ -7,7 +7,7 @@ import pytest
 
 from pneumatics.effects import VOCABULARY
 from pneumatics.effects.effect_set import EffectSet
-from pneumatics.effects.family import PLACE_KINDS, place_names
+from pneumatics.effects.family import DOCTOR_SIDES, PLACE_KINDS, place_names
 from pneumatics.effects.registry import FAMILIES, families_of, get_family, markdown_table
 from pneumatics.errors import ConfigError, UnknownNameError
 
@@ -20,6 +20,7 @@ def test_the_registry_holds_the_design_vocabulary_once_each():
     assert set(VOCABULARY) == DESIGN_VOCABULARY and len(VOCABULARY) == len(DESIGN_VOCABULARY)
     for name, fam in FAMILIES.items():
         assert fam.name == name and fam.place_kind in PLACE_KINDS and fam.forms and fam.sources and fam.physics
+        assert fam.doctor in DOCTOR_SIDES and fam.plants
 
 
 def test_an_unknown_family_or_form_names_the_valid_ones():
