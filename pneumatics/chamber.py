@@ -29,6 +29,8 @@ from __future__ import annotations
 import numpy as np
 
 from .effects.external_leak import laminar_flow
+from .effects.piston_leak import piston_leak_flow
+from .effects.supply_droop import supply_pressure
 from .medium import GasCfg, orifice_flow
 from .tables import FluidTables, valve_areas_table
 from .valve import valve_areas
@@ -124,7 +126,7 @@ def supply_pressure_after(tables: FluidTables, p, a_supply) -> float:
     if tables.supply_droop_pa_per_kg_s <= 0:
         return tables.supply_pa
     m = orifice_flow(a_supply, tables.supply_pa, p, tables.gas)[0]
-    return tables.supply_pa - tables.supply_droop_pa_per_kg_s * float(np.maximum(m, 0.0).sum())
+    return supply_pressure(tables.supply_pa, tables.supply_droop_pa_per_kg_s, m)
 
 
 def leak_flows(tables: FluidTables, p):
@@ -132,10 +134,10 @@ def leak_flows(tables: FluidTables, p):
     (external_leak) and across the piston a -> b (piston_leak), orifices and laminar gaps.  Equal and opposite across a
     piston, so a piston leak conserves the cylinder's air."""
     m = -orifice_flow(tables.external_leak_m2, p, tables.room_pa, tables.gas)[0]
-    m_ab = orifice_flow(tables.piston_leak_m2, p[0::2], p[1::2], tables.gas)[0]
-    # their laminar forms (effects.external_leak.laminar_flow)
+    # the laminar form (effects.external_leak.laminar_flow)
     m = m - laminar_flow(tables.external_leak_g, p, tables.room_pa, tables.room_pa)[0]
-    m_ab = m_ab + laminar_flow(tables.piston_leak_g, p[0::2], p[1::2], tables.room_pa)[0]
+    m_ab = piston_leak_flow(p[0::2], p[1::2], tables.piston_leak_m2, tables.piston_leak_g, tables.gas,
+                            tables.room_pa)[0]
     m[0::2] -= m_ab
     m[1::2] += m_ab
     return m

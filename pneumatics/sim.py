@@ -34,6 +34,9 @@ from .effects.backlash import addresses, backlash_model, drive_pairs
 from .effects.effect_set import EffectSet
 from .effects.friction import friction_torque
 from .effects.heat_transfer import thermal_step
+from .effects.valve_hysteresis import play_step
+from .effects.valve_lag import lag_decay
+from .effects.valve_leak import leak_areas
 from . import arguments
 from .errors import ArgumentError, PneumasimError
 from .kernel import fluid_step_fast, pack, run_steps_compiled
@@ -108,8 +111,7 @@ class Simulation:
         # valve_lag / line_dynamics move the spool between commands: step one physics step at a time
         self._valve_dynamics = bool(np.any(self._lag > 0) or np.any(self._line_delay > 0))
         # exact first-order decay over half a physics step (0 where the valve has no lag)
-        self._lag_decay_half = np.where(self._lag > 0, np.exp(-0.5 * self.model.opt.timestep
-                                                              / np.maximum(self._lag, 1e-300)), 0.0)
+        self._lag_decay_half = lag_decay(self._lag, 0.5 * self.model.opt.timestep)
         self._valve_leak = self.effects.chamber_array(robot, "valve_leak_m2")
         exhaust = self.effects.chamber_array(robot, "valve_leak_exhaust_m2")
         given = np.array([f"{a}.{c}" in self.effects.valve_leak_exhaust_m2 for a, c in robot.chamber_names])
@@ -227,7 +229,7 @@ class Simulation:
                           CommandClippedWarning, stacklevel=2)
         np.clip(u, lo, hi, out=self.command)
         # valve_hysteresis: the spool follows the command through a play of +-h
-        self.spool[:] = np.minimum(np.maximum(self.spool, self.command - self._hysteresis), self.command + self._hysteresis)
+        self.spool[:] = play_step(self.spool, self.command, self._hysteresis)
         if self._valve_dynamics:
             self._spool_history.append((self.time, self.spool.copy()))
             return  # the areas follow step by step (_advance_spool)
@@ -255,8 +257,9 @@ class Simulation:
         spool = self.spool_position if spool is None else spool
         a_s, a_e = valve_areas_table(self.tables, spool)
         if self._valve_leak.any() or self._valve_leak_exhaust.any():  # valve_leak: the spool does not shut near null
-            g = np.exp(-((spool - self.tables.valve[:, 0]) / self.effects.valve_leak_width_v) ** 2)
-            a_s, a_e = a_s + self._valve_leak * g, a_e + self._valve_leak_exhaust * g
+            leak_s, leak_e = leak_areas(spool, self.tables.valve[:, 0], self._valve_leak, self._valve_leak_exhaust,
+                                        self.effects.valve_leak_width_v)
+            a_s, a_e = a_s + leak_s, a_e + leak_e
         self.areas[:, 0], self.areas[:, 1] = a_s, a_e
 
     # -- stepping ------------------------------------------------------------------------

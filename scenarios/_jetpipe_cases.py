@@ -20,7 +20,8 @@ import numpy as np
 
 from controllers.force import ForceCfg
 from identification.doctor.jetpipe.replay import make_trace, measured, replay
-from pneumatics.errors import UnknownNameError
+from pneumatics.effects.registry import families_of, get_family
+from pneumatics.errors import PneumasimError, UnknownNameError
 from pneumatics.io import atomic_write_json
 from pneumatics.jetpipe.effects import JetpipeEffects
 from pneumatics.jetpipe.sim import JetpipeSim, build
@@ -31,7 +32,9 @@ PARAM_ERROR = 0.03
 NOISE = {"p_a.piston": 300.0, "p_b.piston": 300.0, "force.piston": 0.05, "i.piston": 1e-4, "x_jet.piston": 1e-6}
 R2_CONCEALED = 0.9
 
-#: family -> list of (JetpipeEffects field, where, draw(rng) -> SI value)
+#: family -> list of (JetpipeEffects field, where, draw(rng) -> SI value).  The jet-pipe plant keeps
+#: its own effect models (pneumatics/jetpipe/effects.py); its family names are the registry's
+#: (pneumatics/effects/registry.py, families whose ``plants`` include "jetpipe": checked below)
 FAMILIES = {
     "pressure_sensor_offset": [
         ("pressure_sensor_offset_a_pa", {"actuator": "piston", "chamber": "a"}, lambda r: r.choice([-1, 1]) * r.uniform(5e3, 1.5e4)),
@@ -45,6 +48,11 @@ FAMILIES = {
     "valve_hysteresis": [("hysteresis_extra_half_width_m", {"actuator": "piston"},
                           lambda r: r.choice([-1, 1]) * r.uniform(3e-5, 6e-5))],
 }
+
+_unregistered = [f for f in FAMILIES if "jetpipe" not in get_family(f).plants]
+if _unregistered:
+    raise PneumasimError(f"jet-pipe case maker: families {_unregistered} are not registered for the jet-pipe plant "
+                         f"(pneumatics/effects/registry.py: {[f.name for f in families_of('jetpipe')]})")
 
 
 def perturbed_cfg(cfg, rng):

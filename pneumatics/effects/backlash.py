@@ -28,11 +28,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from ..errors import PneumasimError, UnknownNameError
+from .family import Family, param
 
 BACKLASH_STEPS = 2  # contact time constant in physics steps (MuJoCo asks for >= 2)
 BACKLASH_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)  # impedance dmin, dmax, width [rad], midpoint, power
@@ -191,3 +193,42 @@ def set_drive_state(model, data, q_link, qd_link, torque_sign, joint_names: Sequ
         d.qpos[qadr], d.qvel[dadr] = q[w], qd[w]
         d.qpos[dq] = q[w, k] + 0.5 * gap * np.sign(s[w, k])
         d.qvel[dd] = qd[w, k]
+
+
+# -- the family ------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class DeadZone:
+    """A play between cylinder and link."""
+
+    gap_rad: float = param(0.0, "total play (the drive moves gap/2 either way of the link freely)", "rad", 0.0, 1.0)
+
+
+class Backlash(Family):
+    name = "backlash"
+    place_kind = "joint"
+    forms = {"dead_zone": DeadZone}
+    physics = "dead zone of width gap between cylinder and link; stiff damped contact beyond"
+    sources = "Nordin & Gutman, Automatica 38 (2002) eq. 2"
+    simulator = "drive hinge + limited fixed tendon in MuJoCo (backlash_model)"
+    doctor = "pressure_replay"  # the piston leads the link by gap/2 on the side it pushes
+
+    def effect_set_entry(self, params):
+        return {"backlash": {"gap_rad": params.gap_rad}}
+
+    def apply_to_mods(self, mods, robot, place, params):
+        """PneumaticMods.backlash_rad, per actuator: the one that turns joint ``place``."""
+        if place not in robot.joint_names:
+            raise UnknownNameError("joint", place, robot.joint_names)
+        m, jid = robot.model, robot.model.joint(place).id
+        driving = [k for k, i in enumerate(robot.actuator_ids)
+                   if int(m.actuator_trntype[i]) == int(mujoco.mjtTrn.mjTRN_JOINT) and int(m.actuator_trnid[i, 0]) == jid]
+        if not driving:
+            raise PneumasimError(f"backlash: joint {place!r} is driven by no joint-transmission actuator")
+        arr = np.zeros(len(robot.actuator_ids)) if mods.backlash_rad is None else np.array(mods.backlash_rad, float)
+        arr[driving[0]] = params.gap_rad
+        return mods.copy(backlash_rad=arr)
+
+    def draw(self, rng):
+        # a play of 0.3-1 deg between cylinder and link (worn clevis pins and rod-end bearings)
+        return DeadZone(rng.uniform(0.006, 0.018))

@@ -1,7 +1,10 @@
 """Effects switched on in a :class:`pneumatics.sim.Simulation` (or found by the doctor).
 
 Places are named like recording columns: a joint (``"elbow"``), an actuator (``"elbow"``) or
-a chamber (``"elbow.b"``).  Every value carries its unit in its name.
+a chamber (``"elbow.b"``).  Every value carries its unit in its name.  Each field belongs to
+one family of :mod:`pneumatics.effects.registry`, whose module holds the law, its sources and
+the entry it makes here (``Family.effect_set_entry``); :meth:`EffectSet.add` switches a family
+on by name, its parameters checked against their units.
 """
 from __future__ import annotations
 
@@ -10,10 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import UnknownNameError
-
-END_STOP_TIMECONST_S = 0.005
-"""MuJoCo solref time constant of an end-stop bumper [s]: a stiff rubber pad, critically damped
-(about 0.01 rad of give under full pressure on arm2; MuJoCo asks for at least 2 timesteps)."""
+from .end_stop import END_STOP_TIMECONST_S
+from .valve_leak import WIDTH_V
 
 
 @dataclass
@@ -28,7 +29,8 @@ class EffectSet:
     """chamber -> the leak's exhaust-side area [m^2] where it differs from the supply side's
     (``valve_leak_m2``): the two lands of a spool need not be underlapped alike, which moves the
     pressure the leak pulls the chamber towards"""
-    valve_leak_width_v: float = 0.6
+    valve_leak_width_v: float = WIDTH_V
+    """command distance from null over which the valve_leak closes [V] (effects.valve_leak)"""
     external_leak_m2: dict = field(default_factory=dict)
     """chamber -> effective area of a leak to the room [m^2] (external_leak)"""
     piston_leak_m2: dict = field(default_factory=dict)
@@ -65,6 +67,16 @@ class EffectSet:
     """joint -> {"gap_rad": total play between cylinder and link [rad]} (backlash); the cylinder
     drives a hinge of its own, coupled to the link through MuJoCo's tendon limit
     (:func:`pneumatics.effects.backlash.backlash_model`)"""
+
+    def add(self, family: str, place: str, values: dict, form: str | None = None) -> "EffectSet":
+        """Switch ``family`` on at ``place`` (``"all"`` for the supply) with parameters ``values``
+        (the fields of the family's ``form``, default its first; units and ranges checked).
+        Returns self, so calls chain."""
+        from .registry import get_family
+
+        fam = get_family(family)
+        fam.add_to(self, place, fam.params(values, form))
+        return self
 
     def _array(self, attr: str, kind: str, names: list) -> np.ndarray:
         """(len(names),) values of the per-place effect ``attr``; 0 where it is off."""

@@ -25,9 +25,12 @@ The energy the leaking gas carries away (c_p T per kg) is booked by
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..medium import GasCfg, orifice_flow
+from .family import Family, param
 
 LAWS = ("laminar", "linear", "orifice")
 
@@ -74,3 +77,43 @@ def conductance_from_time_constant(volume_m3: float, tau_s: float, temperature_k
                                    gas_constant: float = 287.0) -> float:
     """G [kg/(s Pa)] of a leak whose isothermal decay time constant is tau_s (inverse of the above)."""
     return volume_m3 / (gas_constant * temperature_k * tau_s)
+
+
+# -- the family ------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class OrificeLeak:
+    """A short hole from the chamber to the room."""
+
+    leak_area_m2: float = param(0.0, "effective area Cd A of the hole", "m^2", 0.0, 1e-5)
+
+
+@dataclass(frozen=True)
+class LaminarLeak:
+    """A capillary or porous path from the chamber to the room."""
+
+    conductance_kg_s_pa: float = param(0.0, "conductance G at room pressure", "kg/(s Pa)", 0.0, 1e-6)
+
+
+class ExternalLeak(Family):
+    name = "external_leak"
+    place_kind = "chamber"
+    forms = {"orifice": OrificeLeak, "laminar": LaminarLeak}
+    physics = "flow to the room: orifice (choked/subsonic) or laminar G (p^2 - p_room^2) / (2 p_room)"
+    sources = "paper 002 eqs. 6-8; White, Viscous Fluid Flow §3.3; Beater 2007 §2.4"
+    simulator = "leak flows held over each step (chamber.leak_flows, kernel)"
+    doctor = "pressure_replay"
+    plants = ("valve_arm", "bench_chamber", "jetpipe")
+
+    def effect_set_entry(self, params):
+        if isinstance(params, LaminarLeak):
+            return {"external_leak_laminar_kg_s_pa": params.conductance_kg_s_pa}
+        return {"external_leak_m2": params.leak_area_m2}
+
+    def mods_entry(self, params):
+        if isinstance(params, LaminarLeak):
+            return {"external_leak_g": params.conductance_kg_s_pa}
+        return {"external_leak_m2": params.leak_area_m2}
+
+    def draw(self, rng):
+        return OrificeLeak(rng.uniform(1e-8, 3e-8))

@@ -9,7 +9,11 @@ projects onto these terms.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+
+from .family import Family, joint_column, param
 
 SMOOTH_RAD_S = 0.01
 
@@ -27,3 +31,99 @@ def friction_torque(qd, coulomb_nm=0.0, stiction_extra_nm=0.0, stribeck_rad_s=0.
     """Friction torque [N m] on a joint moving at qd [rad/s] (opposes the motion)."""
     return -(coulomb_nm * coulomb_shape(qd) + stiction_extra_nm * stribeck_shape(qd, stribeck_rad_s)
              + viscous_nm_s * np.asarray(qd))
+
+
+# -- the three families of this law ------------------------------------------------------------
+# coulomb_friction, stiction and viscous_friction are terms of one Stribeck curve (Armstrong-
+# Helouvry et al. 1994): one module, three families, since the doctor tells them apart (a pure
+# Coulomb level, a breakaway excess at low speed, a torque growing with speed) while the
+# simulator adds them into one torque per joint (EffectSet.friction).
+
+
+@dataclass(frozen=True)
+class CoulombParams:
+    """Coulomb friction of a joint."""
+
+    coulomb_nm: float = param(0.0, "Coulomb level F_c, opposing the motion", "N m", 0.0, 50.0)
+
+
+@dataclass(frozen=True)
+class StribeckParams:
+    """Stiction as Stribeck friction: a Coulomb level plus a breakaway excess at low speed."""
+
+    coulomb_nm: float = param(0.0, "Coulomb level F_c", "N m", 0.0, 50.0)
+    breakaway_extra_nm: float = param(0.0, "breakaway excess F_s - F_c at zero speed", "N m", 0.0, 50.0)
+    stribeck_rad_s: float = param(0.1, "Stribeck velocity v_s over which the excess fades", "rad/s", 1e-3, 10.0,
+                                  magnitude=False)
+
+
+@dataclass(frozen=True)
+class ViscousParams:
+    """Viscous friction of a joint."""
+
+    viscous_nm_s_per_rad: float = param(0.0, "viscous coefficient b", "N m s/rad", 0.0, 100.0)
+
+
+class _JointFriction(Family):
+    place_kind = "joint"
+    sources = "Armstrong-Helouvry, Dupont & Canudas de Wit, Automatica 30 (1994)"
+    simulator = "torque into data.qfrc_applied every physics step (kernel)"
+    doctor = "torque_balance"
+
+    def torque(self, qd, params) -> np.ndarray:
+        """The friction torque [N m] at joint velocities qd [rad/s] (opposes the motion)."""
+        raise NotImplementedError
+
+    def torque_balance_term(self, exp, td, joint: int, params) -> np.ndarray:
+        # tau_act + tau_friction = tau_inv, so the equation error carries -tau_friction
+        qd = exp.qd[:, joint]
+        return joint_column(qd.size, exp.qd.shape[1], joint, -self.torque(qd, params))
+
+
+class CoulombFriction(_JointFriction):
+    name = "coulomb_friction"
+    plants = ("valve_arm", "bench_cylinder")  # the bench's rod seal: seal_friction.py
+    forms = {"coulomb": CoulombParams}
+    physics = "F_c tanh(qd / v_eps) against the motion"
+
+    def torque(self, qd, params):
+        return friction_torque(qd, coulomb_nm=params.coulomb_nm)
+
+    def effect_set_entry(self, params):
+        return {"friction": {"coulomb_nm": params.coulomb_nm}}
+
+    def draw(self, rng):
+        return CoulombParams(rng.uniform(0.04, 0.10))
+
+
+class Stiction(_JointFriction):
+    name = "stiction"
+    forms = {"stribeck": StribeckParams}
+    physics = "(F_c + (F_s - F_c) exp(-(qd/v_s)^2)) tanh(qd / v_eps) against the motion"
+
+    def torque(self, qd, params):
+        return friction_torque(qd, coulomb_nm=params.coulomb_nm, stiction_extra_nm=params.breakaway_extra_nm,
+                               stribeck_rad_s=params.stribeck_rad_s)
+
+    def effect_set_entry(self, params):
+        return {"friction": {"coulomb_nm": params.coulomb_nm, "stiction_extra_nm": params.breakaway_extra_nm,
+                             "stribeck_rad_s": params.stribeck_rad_s}}
+
+    def draw(self, rng):
+        return StribeckParams(rng.uniform(0.02, 0.04), rng.uniform(0.06, 0.12), rng.uniform(0.05, 0.15))
+
+
+class ViscousFriction(_JointFriction):
+    name = "viscous_friction"
+    plants = ("valve_arm", "bench_cylinder")
+    forms = {"linear": ViscousParams}
+    physics = "b qd against the motion"
+
+    def torque(self, qd, params):
+        return friction_torque(qd, viscous_nm_s=params.viscous_nm_s_per_rad)
+
+    def effect_set_entry(self, params):
+        return {"friction": {"viscous_nm_s": params.viscous_nm_s_per_rad}}
+
+    def draw(self, rng):
+        return ViscousParams(rng.uniform(0.06, 0.15))

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import spec
+from .family import Family, param
 
 
 @dataclass(frozen=True)
@@ -173,3 +174,35 @@ def thermal_step(p, T, volume, volume_rate, a_supply, a_exhaust, gas, supply_pa,
     m0 = p * v0 / (R * T)
     m1 = np.maximum(m0 + dt * mdot, 1e-3 * m0)
     return p_new, p_new * v1 / (R * m1)
+
+
+# -- the family ------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class NewtonCooling:
+    """Gas-wall exchange Q = h A_w (T_w - T) of one chamber, the wall at the gas table's temperature."""
+
+    conductance_w_k: float = param(0.0, "h A_w between gas and wall", "W/K", 0.0, 1e3)
+
+
+class HeatTransfer(Family):
+    name = "heat_transfer"
+    place_kind = "chamber"
+    forms = {"newton": NewtonCooling}
+    physics = "gas temperature as a state; energy equation with Q = h A (T_wall - T)"
+    sources = "Richer & Hurmuzlu 2000 eq. 11; Carneiro & de Almeida 2006"
+    simulator = "per chamber, stepped in Python (thermal_step)"
+    doctor = "pressure_replay"
+    plants = ("valve_arm", "bench_chamber")
+    mods_off_value = float("nan")  # PneumaticMods.heat_w_k: NaN = paper 002 eq. 9 (no gas temperature)
+
+    def effect_set_entry(self, params):
+        return {"heat_transfer": {"conductance_w_k": params.conductance_w_k}}
+
+    def mods_entry(self, params):
+        return {"heat_w_k": params.conductance_w_k}
+
+    def draw(self, rng):
+        # h A = 0.05-0.3 W/K (walls of 20-50 cm^2, h = 20-100 W/(m^2 K) with the flow's forced
+        # convection; Carneiro & de Almeida 2006), a thermal time constant of 0.1-1 s
+        return NewtonCooling(rng.uniform(0.05, 0.3))

@@ -18,6 +18,7 @@ from pneumatics.chamber import GAMMA
 from pneumatics.effects.external_leak import laminar_flow
 from pneumatics.effects.heat_transfer import thermal_step
 from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play
+from pneumatics.effects.valve_leak import WIDTH_V, leak_areas
 from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
 
@@ -28,14 +29,17 @@ from .thermal import gas_temperatures
 
 @dataclass
 class PneumaticMods:
-    """Changes to the nominal chamber model; arrays are per chamber (C,) unless noted."""
+    """Changes to the nominal chamber model; arrays are per chamber (C,) unless noted.
+
+    The effect fields are filled by the families' own hooks (pneumatics/effects/<family>.py,
+    ``Family.apply_to_mods``); the compiled step (chamber_kernel) reads the same arrays."""
 
     supply_scale: np.ndarray          # multiplies each valve's supply areas
     exhaust_scale: np.ndarray         # multiplies each valve's exhaust areas
     dead_volume_scale: np.ndarray     # multiplies each chamber's dead volume
     valve_leak_m2: np.ndarray = None          # extra area open both ways near null (valve_leak)
     valve_leak_exhaust_m2: np.ndarray = None  # its exhaust-side area where it differs (None: the same)
-    valve_leak_width_v: float = 0.6
+    valve_leak_width_v: float = WIDTH_V
     external_leak_m2: np.ndarray = None       # orifice from the chamber to the room
     piston_leak_m2: np.ndarray = None         # (n_act,) orifice between chambers a and b
     external_leak_g: np.ndarray = None        # laminar leak to the room, conductance [kg/(s Pa)]
@@ -63,8 +67,8 @@ class PneumaticMods:
         chambers ``cs`` whose valves' null is ``null_v``: Gaussian in u - null; (0, 0) if none."""
         if self.valve_leak_m2 is None and self.valve_leak_exhaust_m2 is None:
             return 0.0, 0.0
-        g = np.exp(-((u - null_v) / self.valve_leak_width_v) ** 2)
-        return (0.0 if self.valve_leak_m2 is None else self.valve_leak_m2[cs] * g), self.valve_leak_exhaust()[cs] * g
+        supply = 0.0 if self.valve_leak_m2 is None else self.valve_leak_m2[cs]
+        return leak_areas(u, null_v, supply, self.valve_leak_exhaust()[cs], self.valve_leak_width_v)
 
     def external_leak_flow(self, p, room_pa: float, gas, cs=slice(None)):
         """(m, dm/dp) [kg/s, kg/(s Pa)] out of the chambers ``cs`` at pressures ``p`` through the

@@ -14,10 +14,10 @@ import numpy as np
 
 from pneumatics.chamber import actuator_force
 from pneumatics.effects.backlash import addresses, backlash_model, set_drive_state
+from pneumatics.effects.end_stop import penetration
 from pneumatics.effects.friction import friction_torque
 
 from .data import FINE_DT, Experiment
-from .hypotheses import penetration
 from .pneumatic import (
     ChamberModel,
     PneumaticMods,

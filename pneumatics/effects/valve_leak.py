@@ -1,0 +1,88 @@
+"""valve_leak: a proportional valve that does not shut near its null.
+
+A spool with underlap (or worn lands) leaves both the supply and the exhaust path of a chamber
+slightly open around the null command.  The extra effective areas [m^2] are a Gaussian of the
+spool's distance from the null (the underlap closing as the spool opens one land fully; the
+measured leakage flow of an underlapped spool valve peaks at null and falls within a small
+fraction of the stroke: Merritt, *Hydraulic Control Systems*, 1967, §3.6 "underlapped valves";
+Sorli, Gastaldi, Codina & Heras, "Dynamic analysis of pneumatic actuators", Simul. Pract.
+Theory 7, 1999, for the pneumatic spool's leakage near null)::
+
+    A_s,leak = a_s exp(-((u - u_null) / w)^2),   A_e,leak = a_e exp(-((u - u_null) / w)^2)
+
+Two forms: ``symmetric`` (both lands alike, a_s = a_e) and ``asymmetric`` (two areas: the lands
+underlapped unequally, which moves the pressure a chamber at null settles at).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import UnknownNameError
+from .family import Family, param, place_names
+
+WIDTH_V = 0.6
+"""w [V]: the command distance from null over which the leak closes (simulator and doctor alike)"""
+
+
+def leak_areas(u, null_v, supply_m2, exhaust_m2, width_v: float = WIDTH_V):
+    """(supply, exhaust) extra areas [m^2] at commands ``u`` [V] of valves whose null is
+    ``null_v`` [V]; arrays broadcast."""
+    g = np.exp(-((np.asarray(u, float) - null_v) / width_v) ** 2)
+    return supply_m2 * g, exhaust_m2 * g
+
+
+@dataclass(frozen=True)
+class SymmetricLeak:
+    """Both lands of the spool leak alike."""
+
+    leak_area_m2: float = param(0.0, "extra effective area at null, supply and exhaust alike", "m^2", 0.0, 1e-5)
+
+
+@dataclass(frozen=True)
+class AsymmetricLeak:
+    """The two lands leak differently."""
+
+    supply_leak_area_m2: float = param(0.0, "extra supply-side area at null", "m^2", 0.0, 1e-5)
+    exhaust_leak_area_m2: float = param(0.0, "extra exhaust-side area at null", "m^2", 0.0, 1e-5)
+
+
+class ValveLeak(Family):
+    name = "valve_leak"
+    place_kind = "chamber"
+    forms = {"symmetric": SymmetricLeak, "asymmetric": AsymmetricLeak}
+    physics = "extra supply and exhaust areas, a Gaussian of width 0.6 V around the valve's null"
+    sources = "Merritt 1967 §3.6 (underlapped spools); Sorli et al. 1999"
+    simulator = "valve areas at each spool position (Simulation._update_areas)"
+    doctor = "pressure_replay"
+
+    def _areas(self, params) -> tuple[float, float]:
+        if isinstance(params, AsymmetricLeak):
+            return params.supply_leak_area_m2, params.exhaust_leak_area_m2
+        return params.leak_area_m2, params.leak_area_m2
+
+    def effect_set_entry(self, params):
+        if isinstance(params, AsymmetricLeak):
+            return {"valve_leak_m2": params.supply_leak_area_m2, "valve_leak_exhaust_m2": params.exhaust_leak_area_m2}
+        return {"valve_leak_m2": params.leak_area_m2}
+
+    def apply_to_mods(self, mods, robot, place, params):
+        """PneumaticMods.valve_leak_m2 at the chamber; its exhaust side where it differs (the other
+        chambers' leaks keep their own, symmetric unless set)."""
+        names = place_names(robot, "chamber")
+        if place not in names:
+            raise UnknownNameError("chamber", place, names)
+        c = names.index(place)
+        supply, exhaust = self._areas(params)
+        sup = np.zeros(len(names)) if mods.valve_leak_m2 is None else mods.valve_leak_m2.copy()
+        exh = None if mods.valve_leak_exhaust_m2 is None else mods.valve_leak_exhaust_m2.copy()
+        sup[c] = supply
+        if isinstance(params, AsymmetricLeak) and exh is None:
+            exh = sup.copy()
+        if exh is not None:
+            exh[c] = exhaust
+        return mods.copy(valve_leak_m2=sup, valve_leak_exhaust_m2=exh)
+
+    def draw(self, rng):
+        return SymmetricLeak(rng.uniform(2e-8, 5e-8))
