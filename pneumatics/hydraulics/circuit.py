@@ -38,7 +38,10 @@ from .vane import VaneCfg
 
 STATE_NAMES = ("p_supply", "q_supply", "p_return", "q_return", "p_a", "p_b")
 CAVITATION_FLOOR_PA = 2.0e3
-"""Chamber pressures are kept above this (oil releases vapour and air below it)."""
+"""Oil pressures (chambers, and the supply and return lines' ends) are kept above this: oil
+releases vapour and air below it.  The return line needs it too: fast current reversals at the
+saturation current (a soak of random currents) drew its end to -79 kPa absolute."""
+FLOORED_STATES = (0, 2, 4, 5)  # p_supply, p_return, p_a, p_b
 
 
 @dataclass(frozen=True)
@@ -187,8 +190,8 @@ class HydraulicCircuit:
             # flows at the end of the step: the quadrature that makes the update conserve volume
             flows = self.flows()
             self.tap_volume_m3 += dt * np.array([flows["tap_a"], flows["tap_b"]])
-        if self.y[4] < CAVITATION_FLOOR_PA or self.y[5] < CAVITATION_FLOOR_PA:
-            self.y[4:6] = np.maximum(self.y[4:6], CAVITATION_FLOOR_PA)
+        floored = list(FLOORED_STATES)
+        self.y[floored] = np.maximum(self.y[floored], CAVITATION_FLOOR_PA)
         return self.y
 
     def flows(self) -> dict[str, float]:
