@@ -138,3 +138,18 @@ def test_final_terms_report_the_refined_offset_as_the_replays_plus_the_refinemen
     assert h0 is offset and v0[0] == 1700.0 and e0[0] == 900.0   # 1.9 s.e.: fails the rule
     assert not passes_keep_rule(v0, e0)
     assert h1 is friction and np.allclose(v1, [0.5, 0.1]) and not passes_keep_rule(v1, e1)
+
+
+def test_sample_rate_is_named_with_what_the_doctor_needs(arm2, rec):
+    coarse = Recording(rec.time[::10], {c: v[::10] for c, v in rec.columns.items()}, {}, "coarse.csv")
+    with pytest.raises(RecordingError, match="sample rate 10 Hz is below the 20 Hz the doctor needs"):
+        prepare(arm2, coarse)
+    odd = Recording(rec.time * 1.3, dict(rec.columns), {}, "odd.csv")
+    with pytest.raises(RecordingError, match="sample rate 76.92 Hz is not a whole fraction of 1 kHz"):
+        prepare(arm2, odd)
+
+
+def test_sample_rate_above_1khz(arm2, rec):
+    fast = Recording(rec.time / 20, dict(rec.columns), {}, "fast.csv")
+    with pytest.raises(RecordingError, match="2000 Hz is above 1 kHz"):
+        prepare(arm2, fast)
