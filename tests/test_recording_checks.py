@@ -144,8 +144,8 @@ def test_sample_rate_is_named_with_what_the_doctor_needs(arm2, rec):
     coarse = Recording(rec.time[::10], {c: v[::10] for c, v in rec.columns.items()}, {}, "coarse.csv")
     with pytest.raises(RecordingError, match="sample rate 10 Hz is below the 20 Hz the doctor needs"):
         prepare(arm2, coarse)
-    odd = Recording(rec.time * 1.3, dict(rec.columns), {}, "odd.csv")
-    with pytest.raises(RecordingError, match="sample rate 76.92 Hz is not a whole fraction of 1 kHz"):
+    odd = Recording(rec.time * 1.25, dict(rec.columns), {}, "odd.csv")
+    with pytest.raises(RecordingError, match="sample rate 80 Hz is not a whole fraction of 1 kHz"):
         prepare(arm2, odd)
 
 
