@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pneumatics.errors import RecordingError
+from pneumatics.recording import validate
+from pneumatics.recording_checks import check_for_robot
 from pneumatics.robot import Robot
 
 from .calibrate import chamber_names as calibration_names
@@ -113,6 +115,9 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
     if not recordings:
         raise RecordingError("doctor: no recordings given")
     _check_lengths(recordings, holdouts)
+    for r in [*recordings, *holdouts]:  # whole recordings, so the error names the user's file
+        validate(r, robot.joint_names, robot.actuator_names, model_name=robot.name)
+        check_for_robot(r, robot)
     if holdouts:
         train_recs, held_recs = list(recordings), list(holdouts)
     else:  # the last 30 % of each recording is held out
