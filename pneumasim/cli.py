@@ -35,7 +35,6 @@ def _cmd_doctor(args):
 
     from identification.doctor import diagnose
     from identification.report import summary, write
-    from pneumatics.recording import read_csv
     from pneumatics.robot import load_robot
 
     console = Console(stderr=True)
