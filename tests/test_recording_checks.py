@@ -1,6 +1,7 @@
 """Recordings meet a model: gauge pressures, degrees, too short or too coarse recordings get
 one clear error naming the column, what it read and the fix (issue 18, input side, item 1)."""
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,7 +9,7 @@ import pytest
 from identification.data import prepare
 from identification.doctor import diagnose, final_terms, passes_keep_rule
 from pneumatics.errors import RecordingError
-from pneumatics.recording import Recording, RecordingWarning
+from pneumatics.recording import Recording, RecordingWarning, read_csv
 from pneumatics.recording_checks import add_room_pressure, check_for_robot, check_pressures
 
 
@@ -153,3 +154,25 @@ def test_sample_rate_above_1khz(arm2, rec):
     fast = Recording(rec.time / 20, dict(rec.columns), {}, "fast.csv")
     with pytest.raises(RecordingError, match="2000 Hz is above 1 kHz"):
         prepare(arm2, fast)
+
+
+BLIND = Path(__file__).resolve().parents[2] / "shared" / "samples" / "arm2-blind"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not BLIND.is_dir(), reason="shared/samples not beside the repo")
+def test_every_reported_finding_passes_the_keep_rule_at_its_final_values(arm2):
+    """A gauge recording whose chambers never came near the room pressure passes the checks
+    with a warning, and the doctor names pressure-sensor offsets of about the room pressure;
+    whatever it reports, each fitted parameter is >= 4 standard errors from 0 as reported."""
+    from identification.doctor import MIN_T
+    case = "case_2e0854bc"
+    recs = [gauge(read_csv(BLIND / f"{case}{s}.csv"), arm2.tables.room_pa) for s in ("", "_heldout")]
+    with pytest.warns(RecordingWarning, match="gauge pressures\\?"):
+        rep = diagnose(arm2, [recs[0]], [recs[1]])
+    assert rep["findings"]
+    for f in rep["findings"]:
+        for name, p in f["parameters"].items():
+            if isinstance(p, dict) and "stderr" in p and not name.startswith("offset_pa_if_") and name != "volume_m3":
+                assert abs(p["value"]) >= MIN_T * p["stderr"] > 0, (f["effect"], name, p)
+    assert all(w["final_parameters"] for w in rep["diagnostics"]["withdrawn_after_final_fit"])
