@@ -73,7 +73,7 @@ def joint_positions(qpos, joint_names, joint_range, limited) -> np.ndarray:
     """(n_joint,) positions [rad or m], finite and inside each limited joint's range."""
     q = finite_vector(qpos, (len(joint_names),), "reset(qpos)", joint_names)
     lo, hi = joint_range[:, 0], joint_range[:, 1]
-    tol = 1e-9 * np.maximum(1.0, hi - lo)
+    tol = 1e-4 * np.maximum(1.0, hi - lo)  # a limit typed rounded to 4 digits
     out = np.asarray(limited, bool) & ((q < lo - tol) | (q > hi + tol))
     if out.any():
         i = int(np.argmax(out))

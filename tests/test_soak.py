@@ -124,8 +124,9 @@ def test_closed_valves_conserve_the_gas_short():
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="known defect, measured 2026-11-25: with the valves shut and random joint "
                    "torques of up to 3 N m (the arm at a joint limit 22 % of the time) chamber b0's p V^n drifts "
-                   "by -1.7 % in 20 s and -7 % in 100 s, with the numpy and the compiled kernel alike; it shrinks "
-                   "with a smaller physics step (docs/reliability.md)")
+                   "by -1.7 % in 20 s and -7 % in 100 s, with the numpy and the compiled kernel alike: the "
+                   "step's third-order error accumulating where compressions are faster than expansions "
+                   "(docs/reliability.md)")
 def test_closed_valves_conserve_the_gas_under_forced_motion():
     drift = closed_valve_gas("arm2", 20000, torque_nm=3.0)
     assert np.max(np.abs(drift)) < 1e-3
