@@ -60,10 +60,13 @@ class Experiment:
         return int(round(1.0 / (self.rate_hz * FINE_DT)))
 
 
-def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None) -> Experiment:
-    """Validate ``rec`` against ``robot`` and prepare it (raises RecordingError on bad data)."""
+def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None, checked: bool = False) -> Experiment:
+    """Validate ``rec`` against ``robot`` and prepare it (raises RecordingError on bad data).
+    ``checked``: the whole recording ``rec`` was cut from already passed the model checks
+    (recording_checks.check_for_robot), so they are not repeated (nor their warnings)."""
     validate(rec, robot.joint_names, robot.actuator_names, model_name=robot.name)
-    check_for_robot(rec, robot)  # gauge pressures, degrees, values the robot cannot produce
+    if not checked:
+        check_for_robot(rec, robot)  # gauge pressures, degrees, values the robot cannot produce
     t = rec.time
     if t.size < MIN_ROWS:
         raise RecordingError(f"{rec.source}: {t.size} rows is too short to diagnose (need >= {MIN_ROWS}, "

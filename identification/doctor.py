@@ -124,8 +124,8 @@ def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
         pairs = [split(r, HOLDOUT_SHARE) for r in recordings]
         train_recs, held_recs = [a for a, _ in pairs], [b for _, b in pairs]
     _say(progress, "reading and checking recordings")
-    exp = pool([prepare(robot, r) for r in train_recs])
-    held = pool([prepare(robot, r) for r in held_recs])
+    exp = pool([prepare(robot, r, checked=True) for r in train_recs])
+    held = pool([prepare(robot, r, checked=True) for r in held_recs])
     win = Windows.tile(len(exp.t), HORIZON, breaks=exp.breaks)
     fit_win = Windows.tile(len(exp.t), HORIZON, stride=2 * HORIZON, breaks=exp.breaks)  # half the cost
     win_h = Windows.tile(len(held.t), HORIZON, breaks=held.breaks)
