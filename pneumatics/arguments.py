@@ -73,7 +73,7 @@ def joint_positions(qpos, joint_names, joint_range, limited) -> np.ndarray:
     """(n_joint,) positions [rad or m], finite and inside each limited joint's range."""
     q = finite_vector(qpos, (len(joint_names),), "reset(qpos)", joint_names)
     lo, hi = joint_range[:, 0], joint_range[:, 1]
-    tol = 1e-9 * np.maximum(1.0, hi - lo)
+    tol = 1e-4 * np.maximum(1.0, hi - lo)  # a limit typed rounded to 4 digits
     out = np.asarray(limited, bool) & ((q < lo - tol) | (q > hi + tol))
     if out.any():
         i = int(np.argmax(out))
@@ -95,15 +95,15 @@ def keyframe_id(model, keyframe: str) -> int | None:
     raise UnknownNameError("keyframe", keyframe, names)
 
 
-def command_in_range(value: float, lo: float, hi: float, argument: str, unit: str) -> float:
-    """A scalar command, finite and within [lo, hi]."""
+def command_in_range(value: float, lo: float, hi: float, argument: str, unit: str, why: str = "") -> float:
+    """A scalar command, finite and within [lo, hi] (``why``: the bounds' reason, for the message)."""
     if isinstance(value, bool) or not _numeric(value) or np.ndim(value) != 0:
         raise ArgumentError(f"{argument}: expected one number [{unit}], got {value!r}")
     v = float(value)
     if not np.isfinite(v):
         raise ArgumentError(f"{argument}: {v} is not a finite number [{unit}]")
     if not lo <= v <= hi:
-        raise ArgumentError(f"{argument}: {v:.6g} {unit} is outside {lo:.6g}..{hi:.6g} {unit}")
+        raise ArgumentError(f"{argument}: {v:.6g} {unit} is outside {lo:.6g}..{hi:.6g} {unit}" + (f" ({why})" if why else ""))
     return v
 
 

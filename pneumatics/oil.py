@@ -36,8 +36,9 @@ import numpy as np
 from .config import spec
 
 CAVITATION_FLOOR_PA = 2.0e3
-"""Hydraulic chamber pressures are kept above this [Pa]: the oil releases vapour and dissolved
-air below it, which the bulk-modulus model does not describe."""
+"""Hydraulic pressures (chambers, and the supply and return lines' ends) are kept above this
+[Pa]: the oil releases vapour and dissolved air below it, which the bulk-modulus model does not
+describe."""
 
 
 @dataclass(frozen=True)

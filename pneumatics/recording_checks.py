@@ -50,7 +50,8 @@ def check_pressures(rec: Recording, room_pa: float, supply_pa: float, columns=No
     said = (f"{rec.source}: column {lowest} reads down to {low[lowest]:.4g} Pa, yet a chamber at rest or "
             f"vented reads about the room pressure {room_pa:.6g} Pa absolute")
     if low[lowest] < GAUGE_LOW_SHARE * room_pa:
-        raise RecordingError(f"{said}: these look like gauge pressures (relative to the room); {GAUGE_FIX}")
+        raise RecordingError(f"{said}: these look like gauge pressures (relative to the room), or a wrong unit "
+                             f"(kPa, bar, psi; Pa absolute expected); for gauge values, {GAUGE_FIX}")
     if low[lowest] < SUBATMOSPHERIC_SHARE * room_pa:
         warnings.warn(f"{said}, and only a chamber expanded with its valve shut reads below "
                       f"{SUBATMOSPHERIC_SHARE:g} x that: gauge pressures? if so, {GAUGE_FIX}", RecordingWarning,

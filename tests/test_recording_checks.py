@@ -1,6 +1,7 @@
 """Recordings meet a model: gauge pressures, degrees, too short or too coarse recordings get
 one clear error naming the column, what it read and the fix (issue 18, input side, item 1)."""
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,7 +10,7 @@ from identification.doctor.valve_arm.data import prepare
 from identification.doctor.valve_arm.diagnose import diagnose
 from identification.doctor.valve_arm.final_fit import final_terms, passes_keep_rule
 from pneumatics.errors import RecordingError
-from pneumatics.recording import Recording, RecordingWarning
+from pneumatics.recording import Recording, RecordingWarning, read_csv
 from pneumatics.recording_checks import add_room_pressure, check_for_robot, check_pressures
 
 
@@ -139,3 +140,40 @@ def test_final_terms_report_the_refined_offset_as_the_replays_plus_the_refinemen
     assert h0 is offset and v0[0] == 1700.0 and e0[0] == 900.0   # 1.9 s.e.: fails the rule
     assert not passes_keep_rule(v0, e0)
     assert h1 is friction and np.allclose(v1, [0.5, 0.1]) and not passes_keep_rule(v1, e1)
+
+
+def test_sample_rate_is_named_with_what_the_doctor_needs(arm2, rec):
+    coarse = Recording(rec.time[::10], {c: v[::10] for c, v in rec.columns.items()}, {}, "coarse.csv")
+    with pytest.raises(RecordingError, match="sample rate 10 Hz is below the 20 Hz the doctor needs"):
+        prepare(arm2, coarse)
+    odd = Recording(rec.time * 1.25, dict(rec.columns), {}, "odd.csv")
+    with pytest.raises(RecordingError, match="sample rate 80 Hz is not a whole fraction of 1 kHz"):
+        prepare(arm2, odd)
+
+
+def test_sample_rate_above_1khz(arm2, rec):
+    fast = Recording(rec.time / 20, dict(rec.columns), {}, "fast.csv")
+    with pytest.raises(RecordingError, match="2000 Hz is above 1 kHz"):
+        prepare(arm2, fast)
+
+
+BLIND = Path(__file__).resolve().parents[2] / "shared" / "samples" / "arm2-blind"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not BLIND.is_dir(), reason="shared/samples not beside the repo")
+def test_every_reported_finding_passes_the_keep_rule_at_its_final_values(arm2):
+    """A gauge recording whose chambers never came near the room pressure passes the checks
+    with a warning, and the doctor names pressure-sensor offsets of about the room pressure;
+    whatever it reports, each fitted parameter is >= 4 standard errors from 0 as reported."""
+    from identification.doctor.valve_arm.rules import MIN_T
+    case = "case_2e0854bc"
+    recs = [gauge(read_csv(BLIND / f"{case}{s}.csv"), arm2.tables.room_pa) for s in ("", "_heldout")]
+    with pytest.warns(RecordingWarning, match="gauge pressures\\?"):
+        rep = diagnose(arm2, [recs[0]], [recs[1]])
+    assert rep["findings"]
+    for f in rep["findings"]:
+        for name, p in f["parameters"].items():
+            if isinstance(p, dict) and "stderr" in p and not name.startswith("offset_pa_if_") and name != "volume_m3":
+                assert abs(p["value"]) >= MIN_T * p["stderr"] > 0, (f["effect"], name, p)
+    assert all(w["final_parameters"] for w in rep["diagnostics"]["withdrawn_after_final_fit"])

@@ -38,6 +38,10 @@ from .servovalve import ServovalveCfg, metering_areas
 from .vane import VaneCfg
 
 STATE_NAMES = ("p_supply", "q_supply", "p_return", "q_return", "p_a", "p_b")
+#: the states held at the oil's cavitation floor: the chambers, and the supply and return lines'
+#: ends (fast current reversals at the saturation current drew the return line's end to
+#: -79 kPa absolute in a soak of random currents)
+FLOORED_STATES = (0, 2, 4, 5)  # p_supply, p_return, p_a, p_b
 
 
 @dataclass(frozen=True)
@@ -186,8 +190,8 @@ class HydraulicCircuit:
             # flows at the end of the step: the quadrature that makes the update conserve volume
             flows = self.flows()
             self.tap_volume_m3 += dt * np.array([flows["tap_a"], flows["tap_b"]])
-        if self.y[4] < CAVITATION_FLOOR_PA or self.y[5] < CAVITATION_FLOOR_PA:
-            self.y[4:6] = np.maximum(self.y[4:6], CAVITATION_FLOOR_PA)
+        floored = list(FLOORED_STATES)
+        self.y[floored] = np.maximum(self.y[floored], CAVITATION_FLOOR_PA)
         return self.y
 
     def flows(self) -> dict[str, float]:

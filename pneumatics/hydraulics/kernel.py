@@ -154,7 +154,9 @@ def step_kernel(y, p, modes, tap_p, tap_a, x_v, theta, omega, dt, tap_volume):
         rates_kernel(y, p, modes, tap_p, tap_a, x_v, theta, omega, f, J, tapq)
         tap_volume[0] += dt * tapq[0]
         tap_volume[1] += dt * tapq[1]
-    floor = p[20]
+    floor = p[20]  # circuit.CAVITATION_FLOOR_PA on every pressure state (circuit.FLOORED_STATES)
+    y[0] = max(y[0], floor)
+    y[2] = max(y[2], floor)
     y[4] = max(y[4], floor)
     y[5] = max(y[5], floor)
     return y[4] - y[5]

@@ -119,7 +119,9 @@ class HydraulicJointSim:
         (a unit slip, mA given as A: :class:`~pneumatics.errors.ArgumentError`)."""
         i_sat = self.cfg.hysteresis.saturation_current_a
         current_a = arguments.command_in_range(current_a, -CURRENT_SLIP_FACTOR * i_sat, CURRENT_SLIP_FACTOR * i_sat,
-                                               "HydraulicJointSim.set_current(current_a)", "A")
+                                               "HydraulicJointSim.set_current(current_a)", "A",
+                                               f"the valve saturates at ±{i_sat:g} A; beyond {CURRENT_SLIP_FACTOR:g} x "
+                                               "that is a unit slip, mA given as A?")
         self.current_a = min(max(current_a, -i_sat), i_sat)
         self.i_hys_a = self.hysteresis(self.current_a)
 

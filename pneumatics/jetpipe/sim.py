@@ -131,7 +131,8 @@ class JetpipeSim:
         if force_n is not None:
             s = self.cfg.supply
             f_max = self.cfg.cylinder.piston_area_m2 * (s.supply_pa - s.room_pa)
-            force_n = arguments.command_in_range(force_n, -f_max, f_max, "JetpipeSim.reset(force_n)", "N")
+            force_n = arguments.command_in_range(force_n, -f_max, f_max, "JetpipeSim.reset(force_n)", "N",
+                                                 "the largest steady force, piston area x (supply - room)")
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[0] = self.cfg.cylinder.chamber1_length_m
         if force_n is None:
@@ -198,7 +199,9 @@ class JetpipeSim:
         n = arguments.step_count(n, "JetpipeSim.step")
         if command_a is not None:
             slip = CURRENT_SLIP_FACTOR * self.cfg.driver.current_limit_a
-            self.command_a = arguments.command_in_range(command_a, -slip, slip, "JetpipeSim.step(command_a)", "A")
+            why = (f"the driver saturates at ±{self.cfg.driver.current_limit_a:g} A; beyond {CURRENT_SLIP_FACTOR:g} x "
+                   "that is a unit slip, mA given as A?")
+            self.command_a = arguments.command_in_range(command_a, -slip, slip, "JetpipeSim.step(command_a)", "A", why)
         h = self.dt / self.substeps
         for _ in range(n):
             q, qd = float(self.data.qpos[0]), float(self.data.qvel[0])

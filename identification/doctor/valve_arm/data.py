@@ -23,6 +23,10 @@ FINE_DT = 1e-3
 #: rows each prepared part (fitted or held out) needs: the smoothing splines, the 30-sample
 #: replay windows and the 100-sample bootstrap blocks of the doctor (2 s at 100 Hz)
 MIN_ROWS = 200
+#: the slowest sample rate the doctor is known to read right: on the published null case
+#: (arm2, measured 2026-11-25) it found nothing at 100, 50 and 20 Hz; at 10 Hz it named a
+#: piston leak that is not there and ran ten times longer (each sample spans 100 fine steps)
+MIN_RATE_HZ = 20.0
 
 
 @dataclass
@@ -56,10 +60,13 @@ class Experiment:
         return int(round(1.0 / (self.rate_hz * FINE_DT)))
 
 
-def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None) -> Experiment:
-    """Validate ``rec`` against ``robot`` and prepare it (raises RecordingError on bad data)."""
+def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None, checked: bool = False) -> Experiment:
+    """Validate ``rec`` against ``robot`` and prepare it (raises RecordingError on bad data).
+    ``checked``: the whole recording ``rec`` was cut from already passed the model checks
+    (recording_checks.check_for_robot), so they are not repeated (nor their warnings)."""
     validate(rec, robot.joint_names, robot.actuator_names, model_name=robot.name)
-    check_for_robot(rec, robot)  # gauge pressures, degrees, values the robot cannot produce
+    if not checked:
+        check_for_robot(rec, robot)  # gauge pressures, degrees, values the robot cannot produce
     t = rec.time
     if t.size < MIN_ROWS:
         raise RecordingError(f"{rec.source}: {t.size} rows is too short to diagnose (need >= {MIN_ROWS}, "
@@ -70,8 +77,15 @@ def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None) -> Ex
         raise RecordingError(f"{rec.source}: the sample rate is not uniform (step {dt[i]:.4g} s at t = {t[i]:.3f} s, "
                              f"median {np.median(dt):.4g} s); resample or split the recording at the gap")
     rate = 1.0 / np.median(dt)
+    if rate < MIN_RATE_HZ * (1 - 1e-6):
+        raise RecordingError(f"{rec.source}: sample rate {rate:.4g} Hz is below the {MIN_RATE_HZ:g} Hz the doctor "
+                             f"needs (at 10 Hz it named effects that were not there)")
+    if rate * FINE_DT > 1.0 + 1e-6:
+        raise RecordingError(f"{rec.source}: sample rate {rate:.4g} Hz is above 1 kHz, the fine grid of the replays; "
+                             f"average or decimate it to 1 kHz or a whole fraction of it (500, 200, 100 Hz, ...)")
     if abs(rate * FINE_DT * round(1.0 / (rate * FINE_DT)) - 1.0) > 1e-3:
-        raise RecordingError(f"{rec.source}: sample rate {rate:.4g} Hz is not a whole fraction of 1 kHz")
+        raise RecordingError(f"{rec.source}: sample rate {rate:.4g} Hz is not a whole fraction of 1 kHz "
+                             f"(1000, 500, 200, 100, 50, 20 Hz, ...); resample it")
     if averaged is None:
         averaged = bool(rec.meta.get("daq_averaging", True))
     shift = 0.5 / rate if averaged else 0.0

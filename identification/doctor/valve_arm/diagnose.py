@@ -22,6 +22,8 @@ import numpy as np
 from identification.base.statistics import input_xcorr, ljung_box, ljung_box_p
 from pneumatics.effects.from_finding import form_of
 from pneumatics.errors import RecordingError
+from pneumatics.recording import validate
+from pneumatics.recording_checks import check_for_robot
 from pneumatics.robot import Robot
 
 from .calibrate import fit_chambers, pressure_sigma
@@ -76,14 +78,17 @@ def _calibrated_run(robot: Robot, recordings, holdouts, say) -> tuple[DoctorRun,
     if not recordings:
         raise RecordingError("doctor: no recordings given")
     _check_lengths(recordings, holdouts)
+    for r in [*recordings, *holdouts]:  # whole recordings, so the error names the user's file
+        validate(r, robot.joint_names, robot.actuator_names, model_name=robot.name)
+        check_for_robot(r, robot)
     if holdouts:
         train_recs, held_recs = list(recordings), list(holdouts)
     else:  # the last 30 % of each recording is held out
         pairs = [split(r, HOLDOUT_SHARE) for r in recordings]
         train_recs, held_recs = [a for a, _ in pairs], [b for _, b in pairs]
     say("reading and checking recordings")
-    exp = pool([prepare(robot, r) for r in train_recs])
-    held = pool([prepare(robot, r) for r in held_recs])
+    exp = pool([prepare(robot, r, checked=True) for r in train_recs])
+    held = pool([prepare(robot, r, checked=True) for r in held_recs])
     win = Windows.tile(len(exp.t), HORIZON, breaks=exp.breaks)
     sigma = pressure_sigma(exp)
     say("calibrating chambers (valve areas, dead volumes)")
