@@ -35,9 +35,9 @@ def effect(family, form, where, **params):
 #: one effect of every (family, form) the arm doctor reports, at distinct places, and where
 #: its value must land: (EffectSet attribute, key, expected value or dict)
 CASES = [
-    (effect("valve_leak", "both_lands_alike", {"actuator": "elbow", "chamber": "a"}, leak_area_m2=2e-8),
+    (effect("valve_leak", "symmetric", {"actuator": "elbow", "chamber": "a"}, leak_area_m2=2e-8),
      "valve_leak_m2", "elbow.a", 2e-8),
-    (effect("valve_leak", "two_lands", {"actuator": "elbow", "chamber": "b"},
+    (effect("valve_leak", "asymmetric", {"actuator": "elbow", "chamber": "b"},
             supply_leak_area_m2=3e-8, exhaust_leak_area_m2=1e-8), "valve_leak_exhaust_m2", "elbow.b", 1e-8),
     (effect("external_leak", "orifice", {"actuator": "shoulder", "chamber": "a"}, leak_area_m2=5e-9),
      "external_leak_m2", "shoulder.a", 5e-9),
@@ -48,9 +48,9 @@ CASES = [
      "valve_hysteresis_v", "shoulder.b", 0.3),
     (effect("valve_lag", "first_order", {"actuator": "elbow", "chamber": "a"}, time_constant_s=0.02),
      "valve_lag_s", "elbow.a", 0.02),
-    (effect("line_dynamics", "delay_and_volume", {"actuator": "shoulder", "chamber": "b"}, delay_s=0.01,
+    (effect("line_dynamics", "delay_volume", {"actuator": "shoulder", "chamber": "b"}, delay_s=0.01,
             volume_m3=2e-6), "line_dynamics", "shoulder.b", {"delay_s": 0.01, "volume_m3": 2e-6}),
-    (effect("heat_transfer", "energy_equation", {"actuator": "elbow", "chamber": "b"}, conductance_w_k=0.2),
+    (effect("heat_transfer", "newton", {"actuator": "elbow", "chamber": "b"}, conductance_w_k=0.2),
      "heat_transfer", "elbow.b", {"conductance_w_k": 0.2}),
     (effect("pressure_sensor_offset", "additive", {"actuator": "shoulder", "chamber": "a"}, offset_pa=3000.0),
      "pressure_offset_pa", "shoulder.a", 3000.0),
@@ -63,9 +63,9 @@ CASES = [
     (effect("coulomb_friction", "coulomb", {"joint": "shoulder"}, coulomb_nm=0.04), "friction", "shoulder",
      {"coulomb_nm": 0.04}),
     (effect("stiction", "stribeck", {"joint": "elbow"}, coulomb_nm=0.02, breakaway_extra_nm=0.01,
-            stribeck_velocity_rad_s=0.1), "friction", "elbow",
+            stribeck_rad_s=0.1), "friction", "elbow",
      {"coulomb_nm": 0.02, "stiction_extra_nm": 0.01, "stribeck_rad_s": 0.1}),
-    (effect("viscous_friction", "viscous", {"joint": "shoulder"}, viscous_nm_s_per_rad=0.01), "friction", "shoulder",
+    (effect("viscous_friction", "linear", {"joint": "shoulder"}, viscous_nm_s_per_rad=0.01), "friction", "shoulder",
      {"viscous_nm_s": 0.01}),
 ]
 
@@ -76,13 +76,13 @@ def test_each_reported_effect_lands_in_its_effect_set_entry(arm2, e, attr, key, 
     assert notes == []
     got = getattr(effects, attr) if key is None else getattr(effects, attr)[key]
     assert got == (pytest.approx(expected) if not isinstance(expected, dict) else expected)
-    if e.family == "valve_leak" and e.form == "two_lands":
+    if e.family == "valve_leak" and e.form == "asymmetric":
         assert effects.valve_leak_m2["elbow.b"] == 3e-8
 
 
 def test_friction_forms_at_one_joint_add_up(arm2):
     effects, _ = effect_set([effect("coulomb_friction", "coulomb", {"joint": "elbow"}, coulomb_nm=0.03),
-                             effect("viscous_friction", "viscous", {"joint": "elbow"}, viscous_nm_s_per_rad=0.01),
+                             effect("viscous_friction", "linear", {"joint": "elbow"}, viscous_nm_s_per_rad=0.01),
                              effect("stiction", "stribeck", {"joint": "elbow"}, coulomb_nm=0.01,
                                     breakaway_extra_nm=0.02)], arm2)
     assert effects.friction["elbow"] == pytest.approx({"coulomb_nm": 0.04, "viscous_nm_s": 0.01,
@@ -143,7 +143,7 @@ def full_model() -> FittedModel:
                              "dead_volume_scale.elbow.b": est(1.3, 0.05), "mass_scale.forearm": est(1.1, 0.003),
                              "damping_scale.shoulder": est(1.25, 0.02), "armature_scale.elbow": est(1.5, float("nan"))},
         effects=[c[0] for c in CASES[:-3]] + [effect("coulomb_friction", "coulomb", {"joint": "shoulder"}, coulomb_nm=0.04),
-                                              effect("viscous_friction", "viscous", {"joint": "elbow"},
+                                              effect("viscous_friction", "linear", {"joint": "elbow"},
                                                      viscous_nm_s_per_rad=0.01)],
         unexplained=[{"where": {"joint": "elbow"}, "regime": "high velocity", "share_of_residual": 0.3,
                       "evidence": "a \"smooth\" torque removes 30 %"}],
@@ -405,7 +405,7 @@ def test_a_tube_the_doctor_fitted_into_the_dead_volume_is_counted_once(arm2):
     assert fm.calibration["dead_volume_scale.elbow.b"]["value"] == 1.0
     tube = fm.effects[0].parameters["volume_m3"]
     assert tube["value"] == pytest.approx(0.8 * nominal) and tube["stderr"] == pytest.approx(0.09 * nominal)
-    assert fm.effects[1].form == "stribeck" and fm.effects[1].value("stribeck_velocity_rad_s") == 0.1
+    assert fm.effects[1].form == "stribeck" and fm.effects[1].value("stribeck_rad_s") == 0.1
     robot = load_robot("arm2", fitted=fm)
     delay, volume = robot.effects.line_arrays(robot)
     assert robot.tables.dead_volume[c] + volume[c] == pytest.approx(1.8 * nominal) and delay[c] == 0.012

@@ -1,10 +1,9 @@
 """A fitted effect (a doctor finding, or an ``[[effect]]`` of a model.toml) as the simulator's
-:class:`~pneumatics.effects.effect_set.EffectSet` entry: the one place that mapping is written.
+:class:`~pneumatics.effects.effect_set.EffectSet` entry, through the effect registry.
 
-Each (family, form) the doctor can report names the parameters it carries and how they
-enter the EffectSet.  The doctor's hypotheses (``identification/doctor/valve_arm/hypotheses.py``) test the
-same physics the simulator runs (``effects/__init__.py``'s table), so most map exactly.
-Two do not:
+The forms, their parameters and how each enters the simulator are the families' own
+(:mod:`pneumatics.effects.registry`; the doctor reports a finding's parameters under the field
+names of its family's form).  What this module adds is what a *fitted* model needs beyond that:
 
 * ``end_stop`` (form ``spring_damper``): the doctor fits a one-sided spring k and damper b
   past the stop angle; the simulator's bumper is MuJoCo's soft joint limit moved to that
@@ -12,6 +11,9 @@ Two do not:
   at the fitted angle, its k and b are not: *approximate*.
 * ``force_sensor_offset`` (the bench doctor's load cell): no robot simulator entry: *not
   applied*.
+* friction forms at one joint add up (a Coulomb and a viscous friction found apart);
+* a pressure-sensor offset the torque balance found names its actuator: it is carried on
+  chamber a, with the chamber-b equivalent as an isolability alternative.
 
 :func:`effect_set` returns the EffectSet with a list of notes, one per entry it applied only
 approximately or not at all; :func:`pneumatics.robot.load_robot` turns each note into a
@@ -19,45 +21,44 @@ approximately or not at all; :func:`pneumatics.robot.load_robot` turns each note
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
 
 from ..errors import ConfigError
 from .effect_set import END_STOP_TIMECONST_S, EffectSet
+from .registry import FAMILIES, get_family
 
-#: the Stribeck velocity [rad/s] of the doctor's stiction form (identification.doctor.valve_arm.replay.MechMods.torque)
-STRIBECK_RAD_S = 0.1
+#: parameters a finding may carry beyond its form's fields: isolability alternatives
+ALTERNATIVE_PARAMETERS = {"pressure_sensor_offset": ("offset_pa_if_chamber_a", "offset_pa_if_chamber_b")}
+#: form fields a finding may leave out (the doctor fits a tube's volume only where it pays)
+MAY_OMIT = {("line_dynamics", "delay_volume"): ("volume_m3",)}
 
 
 class FittedModelWarning(UserWarning):
     """An entry of a fitted model the simulator applies only approximately, or not at all."""
 
 
+def _forms() -> dict:
+    """(family, form) -> (required parameters, optional ones), from the registry: a form's
+    magnitude fields are required, its shape fields (a Stribeck velocity) optional."""
+    out = {}
+    for name, fam in FAMILIES.items():
+        for form, cls in fam.forms.items():
+            fields = dataclasses.fields(cls)
+            omit = MAY_OMIT.get((name, form), ())
+            req = tuple(f.name for f in fields if f.metadata.get("magnitude", True) and f.name not in omit)
+            opt = tuple(f.name for f in fields if f.name not in req) + ALTERNATIVE_PARAMETERS.get(name, ())
+            out[(name, form)] = (req, opt)
+    return out
+
+
 #: (family, form) -> (required parameters, optional ones); parameters in the doctor's names
-FORMS = {
-    ("valve_leak", "both_lands_alike"): (("leak_area_m2",), ()),
-    ("valve_leak", "two_lands"): (("supply_leak_area_m2", "exhaust_leak_area_m2"), ()),
-    ("external_leak", "orifice"): (("leak_area_m2",), ()),
-    ("external_leak", "laminar"): (("conductance_kg_s_pa",), ()),
-    ("piston_leak", "orifice"): (("leak_area_m2",), ()),
-    ("piston_leak", "laminar"): (("conductance_kg_s_pa",), ()),
-    ("valve_hysteresis", "play"): (("half_width_v",), ()),
-    ("valve_lag", "first_order"): (("time_constant_s",), ()),
-    ("line_dynamics", "delay_and_volume"): (("delay_s",), ("volume_m3",)),
-    ("heat_transfer", "energy_equation"): (("conductance_w_k",), ()),
-    # offset_pa_if_chamber_<c>: the same actuator force error carried on the other chamber, an
-    # isolability alternative the doctor reports; the offset itself acts on the place given
-    ("pressure_sensor_offset", "additive"): (("offset_pa",), ("offset_pa_if_chamber_a", "offset_pa_if_chamber_b")),
-    ("angle_sensor_offset", "additive"): (("offset_rad",), ()),
-    ("supply_droop", "linear"): (("droop_pa_per_kg_s",), ()),
-    ("backlash", "dead_zone"): (("gap_rad",), ()),
-    ("coulomb_friction", "coulomb"): (("coulomb_nm",), ()),
-    ("stiction", "stribeck"): (("coulomb_nm", "breakaway_extra_nm"), ("stribeck_velocity_rad_s",)),
-    ("viscous_friction", "viscous"): (("viscous_nm_s_per_rad",), ()),
-    ("end_stop", "spring_damper"): (("stiffness_nm_per_rad", "damping_nm_s_per_rad", "stop_rad", "side_sign"), ()),
-    ("force_sensor_offset", "additive"): (("offset_n",), ()),
-}
+FORMS = _forms()
+
+#: the Stribeck velocity [rad/s] of the doctor's stiction form (its default in the registry)
+STRIBECK_RAD_S = get_family("stiction").forms["stribeck"]().stribeck_rad_s
 
 
 def form_of(family: str, parameter_names) -> str:
@@ -92,8 +93,8 @@ def warn_notes(notes: list[str], stacklevel: int = 4):
 
 
 def add_effect(effects: EffectSet, e, robot, where: str = "effect") -> str | None:
-    """Put fitted effect ``e`` into ``effects``; None if exact, else a note saying what is not
-    applied.  Several friction forms at one joint add up."""
+    """Put fitted effect ``e`` into ``effects`` through its family; None if exact, else a note
+    saying what is not applied.  Several friction forms at one joint add up."""
     if (e.family, e.form) not in FORMS:
         forms = [f for fam, f in FORMS if fam == e.family]
         raise ConfigError(f"{where}: unknown form {e.form!r} of {e.family}; known: {', '.join(forms) or 'none'}")
@@ -106,48 +107,28 @@ def add_effect(effects: EffectSet, e, robot, where: str = "effect") -> str | Non
                           + f"; missing {missing}, unknown {unknown}")
     v = {k: e.value(k) for k in e.parameters}
     place = _place(e, robot, where)
-    fam = e.family
-    if fam == "force_sensor_offset":
+    if e.family == "force_sensor_offset":
         return "a load-cell offset has no entry in the robot simulator: not applied"
-    if fam == "end_stop":
+    if e.family == "end_stop" and e.form == "spring_damper":
         return _end_stop(effects, robot, place, v)
-    if fam in ("coulomb_friction", "stiction", "viscous_friction"):
-        fr = effects.friction.setdefault(place, {})
-        add = {"coulomb_nm": v.get("coulomb_nm", 0.0), "stiction_extra_nm": v.get("breakaway_extra_nm", 0.0),
-               "viscous_nm_s": v.get("viscous_nm_s_per_rad", 0.0)}
-        for k, x in add.items():
-            if x:
-                fr[k] = fr.get(k, 0.0) + x
-        if fam == "stiction":
-            fr["stribeck_rad_s"] = v.get("stribeck_velocity_rad_s", STRIBECK_RAD_S)
-        return None
-    if fam == "valve_leak":
-        if e.form == "both_lands_alike":
-            effects.valve_leak_m2[place] = v["leak_area_m2"]
-        else:
-            effects.valve_leak_m2[place] = v["supply_leak_area_m2"]
-            effects.valve_leak_exhaust_m2[place] = v["exhaust_leak_area_m2"]
-        return None
-    if fam == "line_dynamics":
-        effects.line_dynamics[place] = {"delay_s": v["delay_s"], "volume_m3": v.get("volume_m3", 0.0)}
-        return None
-    if fam == "supply_droop":
-        effects.supply_droop_pa_per_kg_s = v["droop_pa_per_kg_s"]
-        return None
-    attr, key, value = {
-        ("external_leak", "orifice"): ("external_leak_m2", None, "leak_area_m2"),
-        ("external_leak", "laminar"): ("external_leak_laminar_kg_s_pa", None, "conductance_kg_s_pa"),
-        ("piston_leak", "orifice"): ("piston_leak_m2", None, "leak_area_m2"),
-        ("piston_leak", "laminar"): ("piston_leak_laminar_kg_s_pa", None, "conductance_kg_s_pa"),
-        ("valve_hysteresis", "play"): ("valve_hysteresis_v", None, "half_width_v"),
-        ("valve_lag", "first_order"): ("valve_lag_s", None, "time_constant_s"),
-        ("heat_transfer", "energy_equation"): ("heat_transfer", "conductance_w_k", "conductance_w_k"),
-        ("pressure_sensor_offset", "additive"): ("pressure_offset_pa", None, "offset_pa"),
-        ("angle_sensor_offset", "additive"): ("angle_offset_rad", None, "offset_rad"),
-        ("backlash", "dead_zone"): ("backlash", "gap_rad", "gap_rad"),
-    }[(fam, e.form)]
-    getattr(effects, attr)[place] = v[value] if key is None else {key: v[value]}
+    fam = get_family(e.family)
+    values = {k: x for k, x in v.items() if k not in ALTERNATIVE_PARAMETERS.get(e.family, ())}
+    params = fam.params(values, e.form)
+    if e.family in ("coulomb_friction", "stiction", "viscous_friction"):
+        _add_friction(effects, place, fam.effect_set_entry(params)["friction"])
+    else:
+        fam.add_to(effects, place, params)
     return None
+
+
+def _add_friction(effects: EffectSet, joint: str, entry: dict):
+    """Friction terms add up at one joint; the Stribeck velocity is a shape, set, not added."""
+    fr = effects.friction.setdefault(joint, {})
+    for k, x in entry.items():
+        if k == "stribeck_rad_s":
+            fr[k] = x
+        elif x:
+            fr[k] = fr.get(k, 0.0) + x
 
 
 def _place(e, robot, where: str) -> str:

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from pneumatics.effects.from_finding import STRIBECK_RAD_S, form_of
+from pneumatics.effects.registry import FAMILIES
 from pneumatics.errors import ConfigError
 from pneumatics.fitted_model import FittedEffect, FittedModel, pneumasim_version, write_fitted
 
@@ -24,6 +25,7 @@ from .data import pool, prepare
 from .hypotheses import pneumatic_hypotheses
 from .pneumatic import PneumaticMods
 from .replay import MechMods, ReplayResult, coupled_replay
+from .search import MECH_ATTRS
 
 
 def fitted_model(robot, report: dict, final_params: list, cal_stderr: dict) -> FittedModel:
@@ -36,7 +38,7 @@ def fitted_model(robot, report: dict, final_params: list, cal_stderr: dict) -> F
     for f, params in zip(report["findings"], final_params):
         params = {k: {"value": float(v["value"]), "stderr": float(v["stderr"])} for k, v in params.items()}
         if f["effect"] == "stiction":  # the doctor's Stribeck velocity, fixed (replay.MechMods.torque)
-            params["stribeck_velocity_rad_s"] = {"value": STRIBECK_RAD_S, "stderr": 0.0}
+            params["stribeck_rad_s"] = {"value": STRIBECK_RAD_S, "stderr": 0.0}
         e = FittedEffect(f["effect"], form_of(f["effect"], params), dict(f["where"]), params)
         if e.family == "line_dynamics":
             _split_line_volume(robot, e, cal)
@@ -93,7 +95,7 @@ def replay_mods(robot) -> tuple[PneumaticMods, MechMods]:
             pmods = _apply_pneumatic(pmods, e, hyps, robot)
         elif e.family in _MECH:
             j = robot.joint_names.index(e.place)
-            for name, attr in _MECH[e.family]:
+            for name, attr in [(n, MECH_ATTRS[n]) for n in e.parameters if MECH_ATTRS.get(n)]:
                 arr = getattr(mmods, attr)
                 arr = np.zeros(J) if arr is None else arr
                 arr[j] = arr[j] + e.value(name) if e.family != "angle_sensor_offset" else e.value(name)
@@ -105,24 +107,21 @@ def replay_mods(robot) -> tuple[PneumaticMods, MechMods]:
     return pmods, mmods
 
 
-#: the mechanical effects: parameter -> MechMods attribute (identification.doctor.valve_arm.replay.MechMods)
-_MECH = {"coulomb_friction": [("coulomb_nm", "coulomb_nm")],
-         "stiction": [("coulomb_nm", "coulomb_nm"), ("breakaway_extra_nm", "stiction_extra_nm")],
-         "viscous_friction": [("viscous_nm_s_per_rad", "viscous_nm_s")],
-         "angle_sensor_offset": [("offset_rad", "angle_offset_rad")],
-         "end_stop": [("stiffness_nm_per_rad", "end_stop_nm_per_rad"), ("damping_nm_s_per_rad", "end_stop_nm_s_per_rad")]}
+#: the mechanical effects: those the doctor's torque balance tests (the registry's doctor side);
+#: each reported parameter goes to its MechMods attribute (search.MECH_ATTRS)
+_MECH = {name for name, fam in FAMILIES.items() if fam.doctor == "torque_balance"}
 
 #: the pneumatic forms and the hypothesis parameters they are fitted as (identification.doctor.valve_arm.hypotheses)
 _PNEUMATIC_FORMS = {
-    ("valve_leak", "both_lands_alike"): ("leak_area_m2",),
-    ("valve_leak", "two_lands"): ("supply_leak_area_m2", "exhaust_leak_area_m2"),
+    ("valve_leak", "symmetric"): ("leak_area_m2",),
+    ("valve_leak", "asymmetric"): ("supply_leak_area_m2", "exhaust_leak_area_m2"),
     ("external_leak", "orifice"): ("leak_area_m2",),
     ("piston_leak", "orifice"): ("leak_area_m2",),
     ("piston_leak", "laminar"): ("conductance_kg_s_pa",),
     ("valve_hysteresis", "play"): ("half_width_v",),
     ("valve_lag", "first_order"): ("time_constant_s",),
-    ("line_dynamics", "delay_and_volume"): ("delay_s",),
-    ("heat_transfer", "energy_equation"): ("conductance_w_k",),
+    ("line_dynamics", "delay_volume"): ("delay_s",),
+    ("heat_transfer", "newton"): ("conductance_w_k",),
     ("pressure_sensor_offset", "additive"): ("offset_pa",),
     ("supply_droop", "linear"): ("droop_pa_per_kg_s",),
     ("backlash", "dead_zone"): ("gap_rad",),

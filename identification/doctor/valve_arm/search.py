@@ -288,12 +288,17 @@ def finding_params(s: Scored) -> dict:
     return out
 
 
+#: each torque-balance parameter the doctor reports -> its MechMods attribute (replay.MechMods);
+#: None: not a MechMods term (a pressure-sensor offset acts on the chamber model)
+MECH_ATTRS = {"coulomb_nm": "coulomb_nm", "breakaway_extra_nm": "stiction_extra_nm",
+              "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad",
+              "offset_pa": None, "stiffness_nm_per_rad": "end_stop_nm_per_rad",
+              "damping_nm_s_per_rad": "end_stop_nm_s_per_rad"}
+
+
 def mech_attr(param):
     """MechMods attribute of a mechanical hypothesis parameter."""
-    return {"coulomb_nm": "coulomb_nm", "breakaway_extra_nm": "stiction_extra_nm",
-            "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad",
-            "offset_pa": None, "stiffness_nm_per_rad": "end_stop_nm_per_rad",
-            "damping_nm_s_per_rad": "end_stop_nm_s_per_rad"}[param]
+    return MECH_ATTRS[param]
 
 
 def apply_offset(mods: PneumaticMods, c: int, offset_pa: float, n_ch: int) -> PneumaticMods:
