@@ -24,7 +24,7 @@ import math
 import numba
 import numpy as np
 
-from .medium import _psi as _psi_ref
+from .medium import flow_function
 
 GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
 MAX_HALVINGS = 6
@@ -55,7 +55,7 @@ def _unit_flow(p_up, p_down, glob):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def _orifice(area, p_from, p_to, glob):
+def orifice_flow_compiled(area, p_from, p_to, glob):
     """Signed mass flow [kg/s] and its derivatives (medium.orifice_flow)."""
     if p_from >= p_to:
         f, d_hi, d_lo = _unit_flow(p_from, p_to, glob)
@@ -68,8 +68,8 @@ def _orifice(area, p_from, p_to, glob):
 def _rate(p, volume, volume_rate, a_s, a_e, glob, m_extra):
     rt = glob[0] * glob[2]
     n = glob[3]
-    m_s, _, dms = _orifice(a_s, glob[13], p, glob)  # supply pressure in effect (supply_droop)
-    m_e, dme, _ = _orifice(a_e, p, glob[9], glob)
+    m_s, _, dms = orifice_flow_compiled(a_s, glob[13], p, glob)  # supply pressure in effect (supply_droop)
+    m_e, dme, _ = orifice_flow_compiled(a_e, p, glob[9], glob)
     return (n / volume * (rt * (m_s - m_e + m_extra) - p * volume_rate),
             n / volume * (rt * (dms - dme) - volume_rate))
 
@@ -98,13 +98,13 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
     m_extra = np.zeros(n_ch)
     for i in range(n_ch):  # leaks, explicit over the step (their time constants >> dt)
         if ch[i, 12] > 0.0:
-            m_x, _, _ = _orifice(ch[i, 12], p[i], glob[9], glob)
+            m_x, _, _ = orifice_flow_compiled(ch[i, 12], p[i], glob[9], glob)
             m_extra[i] -= m_x
         if ch[i, 13] > 0.0:  # laminar: G (p^2 - p_room^2) / (2 p_room) (effects.external_leak)
             m_extra[i] -= ch[i, 13] * (p[i] - glob[9]) * (p[i] + glob[9]) / (2.0 * glob[9])
     for j in range(act.shape[0]):
         if act[j, 5] > 0.0:
-            m_ab, _, _ = _orifice(act[j, 5], p[2 * j], p[2 * j + 1], glob)
+            m_ab, _, _ = orifice_flow_compiled(act[j, 5], p[2 * j], p[2 * j + 1], glob)
             m_extra[2 * j] -= m_ab
             m_extra[2 * j + 1] += m_ab
         if act[j, 6] > 0.0:
@@ -127,7 +127,7 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
     if glob[12] > 0.0:  # supply_droop: the line drops pressure with the total supply flow
         total = 0.0
         for i in range(n_ch):
-            m_s, _, _ = _orifice(areas[i, 0], glob[8], p[i], glob)
+            m_s, _, _ = orifice_flow_compiled(areas[i, 0], glob[8], p[i], glob)
             total += max(m_s, 0.0)
         glob[13] = glob[8] - glob[12] * total
 
@@ -197,7 +197,7 @@ def pack(tables, ctrl_index, dt):
                                                 tables.piston_leak_g]))
     ch = np.ascontiguousarray(np.column_stack([ch, tables.external_leak_m2, tables.external_leak_g]))
     gas = tables.gas
-    slope = gas.c_sub * _psi_ref(gas.laminar_ratio, gas.heat_capacity_ratio) / (1.0 - gas.laminar_ratio)
+    slope = gas.c_sub * flow_function(gas.laminar_ratio, gas.heat_capacity_ratio) / (1.0 - gas.laminar_ratio)
     return act, ch, np.concatenate([glob, [dt, slope, tables.supply_droop_pa_per_kg_s, tables.supply_pa]])
 
 

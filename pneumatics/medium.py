@@ -65,7 +65,9 @@ class GasCfg:
                          self.critical_ratio, self.c_choke, self.c_sub])
 
 
-def _psi(r, k):
+def flow_function(r, k):
+    """The flow function psi(r) = sqrt(r^(2/k) - r^((k+1)/k)) of the downstream-to-upstream
+    pressure ratio r of isentropic orifice flow (paper 002 eqs. 6-8), clipped at 0 for r >= 1."""
     return np.sqrt(np.maximum(r ** (2.0 / k) - r ** ((k + 1.0) / k), 0.0))
 
 
@@ -92,12 +94,12 @@ def _unit_flow_branches(p_up, p_down, r, gas, k, rc, rl):
     # choked
     f_ch = gas.c_choke * p_up
     # subsonic
-    psi, dpsi = _psi(r, k), _dpsi_dr(r, k)
+    psi, dpsi = flow_function(r, k), _dpsi_dr(r, k)
     f_sub = gas.c_sub * p_up * psi
     dsub_dup = gas.c_sub * (psi - r * dpsi)
     dsub_ddown = gas.c_sub * dpsi
     # linear branch, matched at r = laminar_ratio: f = c_sub psi(rl) (p_up - p_down) / (1 - rl)
-    slope = gas.c_sub * _psi(rl, k) / (1.0 - rl)
+    slope = gas.c_sub * flow_function(rl, k) / (1.0 - rl)
     f_lin = slope * (p_up - p_down)
     flow = np.where(r <= rc, f_ch, np.where(r <= rl, f_sub, f_lin))
     d_up = np.where(r <= rc, gas.c_choke, np.where(r <= rl, dsub_dup, slope))

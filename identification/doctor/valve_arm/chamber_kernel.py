@@ -21,13 +21,13 @@ import math
 import numba
 import numpy as np
 
-from pneumatics.kernel import GAMMA, _orifice
-from pneumatics.medium import _psi
+from pneumatics.kernel import GAMMA, orifice_flow_compiled
+from pneumatics.medium import flow_function
 
 
 def pack_glob(gas, supply_pa: float, room_pa: float, dt: float, droop: float) -> np.ndarray:
     """The kernel's gas/plant constants (layout of pneumatics.kernel's ``glob``)."""
-    slope = gas.c_sub * _psi(gas.laminar_ratio, gas.heat_capacity_ratio) / (1.0 - gas.laminar_ratio)
+    slope = gas.c_sub * flow_function(gas.laminar_ratio, gas.heat_capacity_ratio) / (1.0 - gas.laminar_ratio)
     return np.concatenate([gas.as_array(), [supply_pa, room_pa, dt, slope, droop, supply_pa]])
 
 
@@ -59,13 +59,13 @@ def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ext_g, piston_g, ps, glob, f, jac,
     m = np.empty(C)
     dm = np.empty(C)
     for c in range(C):
-        ms, _, dms = _orifice(a_s[c], ps, q[c], glob)
-        me, dme, _ = _orifice(a_e[c], q[c], room, glob)
+        ms, _, dms = orifice_flow_compiled(a_s[c], ps, q[c], glob)
+        me, dme, _ = orifice_flow_compiled(a_e[c], q[c], room, glob)
         m[c] = ms - me
         dm[c] = dms - dme
         m_s[c] = ms
         if ext[c] > 0.0:
-            mx, dmx, _ = _orifice(ext[c], q[c], room, glob)
+            mx, dmx, _ = orifice_flow_compiled(ext[c], q[c], room, glob)
             m[c] -= mx
             dm[c] -= dmx
         if ext_g[c] > 0.0:  # laminar: G (p^2 - p_room^2) / (2 p_room)
@@ -73,7 +73,7 @@ def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ext_g, piston_g, ps, glob, f, jac,
             dm[c] -= ext_g[c] * q[c] / room
     for j in range(C // 2):
         if piston[j] > 0.0:
-            mab, da, db = _orifice(piston[j], q[2 * j], q[2 * j + 1], glob)
+            mab, da, db = orifice_flow_compiled(piston[j], q[2 * j], q[2 * j + 1], glob)
             m[2 * j] -= mab
             m[2 * j + 1] += mab
             dm[2 * j] -= da
@@ -94,8 +94,8 @@ def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ext_g, piston_g, ps, glob, f, jac,
 def _flows_thermal(q, T, a_s, a_e, ps, extra, glob):
     """pneumatics.effects.heat_transfer.chamber_flows for one chamber: (mdot, sum T_j mdot_j, its d/dp)."""
     room, t_ref = glob[9], glob[2]
-    ms, _, dms = _orifice(a_s, ps, q, glob)
-    me, dme, _ = _orifice(a_e, q, room, glob)
+    ms, _, dms = orifice_flow_compiled(a_s, ps, q, glob)
+    me, dme, _ = orifice_flow_compiled(a_e, q, room, glob)
     scale = math.sqrt(t_ref / T)
     mdot, h, dh = 0.0, 0.0, 0.0
     for m, dm in ((ms, dms), (-me, -dme), (extra, 0.0)):
@@ -174,14 +174,14 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
             extra = 0.0
             room = glob[9]
             if external_leak_m2[c] > 0.0:
-                extra -= _orifice(external_leak_m2[c], p[w, c], room, glob)[0]
+                extra -= orifice_flow_compiled(external_leak_m2[c], p[w, c], room, glob)[0]
             if external_leak_g[c] > 0.0:
                 extra -= external_leak_g[c] * (p[w, c] - room) * (p[w, c] + room) / (2.0 * room)
             j = c // 2
             pa, pb = p[w, 2 * j], p[w, 2 * j + 1]
             mab = 0.0
             if piston_leak_m2[j] > 0.0:
-                mab += _orifice(piston_leak_m2[j], pa, pb, glob)[0]
+                mab += orifice_flow_compiled(piston_leak_m2[j], pa, pb, glob)[0]
             if piston_leak_g[j] > 0.0:
                 mab += piston_leak_g[j] * (pa - pb) * (pa + pb) / (2.0 * room)
             extra += -mab if c == 2 * j else mab
