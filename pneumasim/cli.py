@@ -69,7 +69,8 @@ def recordings_from_args(args, progress=None):
 
 
 def _cmd_import(args):
-    from pneumatics.importer import import_recording, sidecar_path
+    from pneumatics.formats.by_suffix import import_recording
+    from pneumatics.importer import sidecar_path
 
     meta = {}
     for item in args.meta or []:

@@ -37,8 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import read_toml
-from .errors import ConfigError, OutputError, RecordingError, UnknownNameError
-from .io import OutputFiles
+from .errors import ConfigError, RecordingError, UnknownNameError
 from .recording import Recording
 
 MAPS_DIR = Path(__file__).resolve().parent / "import_maps"
@@ -290,38 +289,3 @@ def import_file(src: str | Path, mapping: ImportMap | str | Path, meta: dict | N
 def sidecar_path(out: str | Path) -> Path:
     """The sidecar of recording ``out``: REC.csv -> REC.json (DESIGN.md "Recordings")."""
     return Path(out).with_suffix(".json")
-
-
-def import_recording(src, mapping, out, meta: dict | None = None) -> Recording:
-    """Import ``src`` (a lab log, or a ROS bag through the map's ``[ros]`` section) and write
-    ``out`` by its suffix: ``.csv`` with its sidecar ``REC.json`` (both or neither), or
-    ``.parquet`` (metadata inside).
-
-    Checked before reading: ``out`` is not ``src``, the sidecar is not ``src``, ``out`` is not
-    a ``.json`` name (the sidecar would fall on it) and everything can be written."""
-    from .formats.rosbag import is_ros_bag, read_bag
-
-    out = Path(out)
-    if out.suffix.lower() == ".json":
-        raise OutputError(f"--out {out}: a recording is a CSV file and its metadata goes to a sidecar "
-                          f"of the same name with .json; give e.g. --out {out.with_suffix('.csv')}")
-    if out.suffix.lower() not in (".csv", ".parquet"):
-        raise OutputError(f"--out {out}: a recording is written as .csv (with a .json sidecar) or .parquet")
-    read = read_bag if is_ros_bag(src) else import_file
-    targets = (out, sidecar_path(out)) if out.suffix.lower() == ".csv" else (out,)
-    if len(targets) > 1 and targets[1].resolve() == Path(src).expanduser().resolve():
-        raise OutputError(f"--out {out}: its sidecar {targets[1]} would overwrite the input {src}; give --out another name")
-    with OutputFiles(*targets, inputs=[src]) as files:
-        rec = read(src, mapping, meta)
-        if out.suffix.lower() == ".csv":
-            rec.to_csv(files.file(out), sidecar=files.file(targets[1]))
-        else:
-            rec.to_parquet(files.file(out))
-    return rec
-
-
-def import_to_csv(src, mapping, out, meta: dict | None = None) -> Recording:
-    """:func:`import_recording` into a CSV file (kept for callers that always write CSV)."""
-    if Path(out).suffix.lower() != ".csv":
-        raise OutputError(f"--out {out}: import_to_csv writes a .csv file")
-    return import_recording(src, mapping, out, meta)

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import RecordingError
+from ..errors import OutputError, RecordingError
+from ..importer import import_file, sidecar_path
+from ..io import OutputFiles
 from ..recording import Recording, read_csv, read_parquet
 from .rosbag import is_ros_bag, read_bag
 from .rosbag_write import write_bag
@@ -46,3 +48,29 @@ def write_recording(rec: Recording, path: str | Path, mapping=None) -> Path:
         return write_bag(rec, path, mapping)
     rec.write(path)
     return path
+
+
+def import_recording(src, mapping, out, meta: dict | None = None) -> Recording:
+    """Import ``src`` (a lab log, or a ROS bag through the map's ``[ros]`` section) and write
+    ``out`` by its suffix: ``.csv`` with its sidecar ``REC.json`` (both or neither), or
+    ``.parquet`` (metadata inside).
+
+    Checked before reading: ``out`` is not ``src``, the sidecar is not ``src``, ``out`` is not
+    a ``.json`` name (the sidecar would fall on it) and everything can be written."""
+    out = Path(out)
+    if out.suffix.lower() == ".json":
+        raise OutputError(f"--out {out}: a recording is a CSV file and its metadata goes to a sidecar "
+                          f"of the same name with .json; give e.g. --out {out.with_suffix('.csv')}")
+    if out.suffix.lower() not in (".csv", ".parquet"):
+        raise OutputError(f"--out {out}: a recording is written as .csv (with a .json sidecar) or .parquet")
+    read = read_bag if is_ros_bag(src) else import_file
+    targets = (out, sidecar_path(out)) if out.suffix.lower() == ".csv" else (out,)
+    if len(targets) > 1 and targets[1].resolve() == Path(src).expanduser().resolve():
+        raise OutputError(f"--out {out}: its sidecar {targets[1]} would overwrite the input {src}; give --out another name")
+    with OutputFiles(*targets, inputs=[src]) as files:
+        rec = read(src, mapping, meta)
+        if out.suffix.lower() == ".csv":
+            rec.to_csv(files.file(out), sidecar=files.file(targets[1]))
+        else:
+            rec.to_parquet(files.file(out))
+    return rec
