@@ -22,6 +22,7 @@ import numpy as np
 
 from .errors import RecordingError
 from .formats import parquet
+from .formats.rows import check_rows
 from .io import atomic_write_text
 
 KNOWN_PREFIXES = ("q", "qd", "p_a", "p_b", "u_a", "u_b", "i", "force", "tau", "ref")
@@ -149,19 +150,8 @@ def read_csv(path: str | Path) -> Recording:
     if dup:
         raise RecordingError(f"{path}: repeated column(s) {sorted(dup)}")
     data = _numbers(path, rows[1:], header, decimal_comma=delim != ",")
-    bad = ~np.isfinite(data)
-    if bad.any():
-        i, j = np.argwhere(bad)[0]
-        raise RecordingError(f"{path}: line {i + 2}, column {header[j]!r} is {data[i, j]} "
-                             f"({int(bad.sum())} non-finite value(s) in all); clean or cut the recording")
+    check_rows(path, header, data, first=2, word="line")
     t = data[:, header.index("time")]
-    if t.size < 2:
-        raise RecordingError(f"{path}: needs at least 2 rows, has {t.size}")
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        i = int(np.argmax(dt <= 0))
-        raise RecordingError(f"{path}: time is not strictly increasing at line {i + 3} "
-                             f"({t[i]:g} s then {t[i + 1]:g} s)")
     columns = {h: data[:, j].copy() for j, h in enumerate(header) if h != "time"}
     side = path.with_suffix(".json")
     meta = read_sidecar(side) if side.is_file() else {}
@@ -171,7 +161,7 @@ def read_csv(path: str | Path) -> Recording:
 def read_parquet(path: str | Path) -> Recording:
     """Read a Parquet recording with the checks of :func:`read_csv` (formats/parquet.py)."""
     t, columns, meta = parquet.read_table(path)
-    return Recording(t, columns, meta, str(path))
+    return Recording(t, columns, check_metadata(meta, f"{path}: metadata"), str(path))
 
 
 def _read_text(path: Path) -> str:
@@ -240,6 +230,12 @@ def read_sidecar(path: str | Path) -> dict:
     if not isinstance(meta, dict):
         raise RecordingError(f"{path}: sidecar must be a JSON object {{\"field\": value, ...}}, "
                              f"got a JSON {_json_kind(meta)}")
+    return check_metadata(meta, f"{path}: sidecar")
+
+
+def check_metadata(meta: dict, where: str) -> dict:
+    """``meta`` (a sidecar's, or a Parquet file's) with the fields pneumasim reads
+    (:data:`SIDECAR_FIELDS`) checked for their types; RecordingError naming ``where`` and the field."""
     for name, (kind, expected) in SIDECAR_FIELDS.items():
         if name not in meta or meta[name] is None:
             continue
@@ -249,7 +245,7 @@ def read_sidecar(path: str | Path) -> dict:
         else:
             ok = isinstance(v, kind)
         if not ok:
-            raise RecordingError(f"{path}: sidecar field {name!r} must be {expected}, got {json.dumps(v)}")
+            raise RecordingError(f"{where} field {name!r} must be {expected}, got {json.dumps(v)}")
     return meta
 
 

@@ -128,3 +128,16 @@ def test_column_names_lose_a_byte_order_mark_and_spaces_as_in_a_csv_header(tmp_p
                    tmp_path / "dup.parquet")
     with pytest.raises(RecordingError, match="dup.parquet: repeated column\\(s\\) \\['q.elbow'\\]"):
         read_parquet(tmp_path / "dup.parquet")
+
+
+def test_metadata_fields_are_checked_as_a_sidecars_are(tmp_path):
+    """A Parquet file's metadata carries what a CSV's sidecar does, so the fields pneumasim reads
+    get the sidecar's type checks, naming the file and the field."""
+    rec = arm2_like()
+    rec.meta["rate_hz"] = "fast"
+    rec.to_parquet(tmp_path / "r.parquet")
+    with pytest.raises(RecordingError, match=r"r.parquet: metadata field 'rate_hz' must be a positive number"):
+        read_parquet(tmp_path / "r.parquet")
+    rec.meta["rate_hz"] = 100.0
+    rec.to_parquet(tmp_path / "r.parquet")
+    assert read_parquet(tmp_path / "r.parquet").meta["rate_hz"] == 100.0

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import RecordingError
 from ..io import atomic_save
+from .rows import check_rows
 
 META_KEY = b"pneumasim.meta"
 """Parquet schema-metadata key of the recording's metadata (JSON)."""
@@ -59,7 +60,7 @@ def read_table(path: str | Path) -> tuple[np.ndarray, dict[str, np.ndarray], dic
     data = np.empty((table.num_rows, len(header)))
     for j, name in enumerate(header):
         data[:, j] = _numbers(path, name, table.column(j))
-    _check_rows(path, header, data)
+    check_rows(path, header, data, first=1, word="row")
     t = data[:, header.index("time")]
     columns = {h: data[:, j].copy() for j, h in enumerate(header) if h != "time"}
     return t.copy(), columns, _meta(path, table.schema.metadata)
@@ -78,23 +79,6 @@ def _numbers(path: Path, name: str, column) -> np.ndarray:
         raise RecordingError(f"{path}: row {row + 1}, column {name!r} is null "
                              f"({column.null_count} null value(s) in all); clean or cut the recording")
     return column.to_numpy().astype(float)
-
-
-def _check_rows(path: Path, header: list[str], data: np.ndarray):
-    """The CSV reader's row checks: finite values, >= 2 rows, strictly increasing time."""
-    bad = ~np.isfinite(data)
-    if bad.any():
-        i, j = np.argwhere(bad)[0]
-        raise RecordingError(f"{path}: row {i + 1}, column {header[j]!r} is {data[i, j]} "
-                             f"({int(bad.sum())} non-finite value(s) in all); clean or cut the recording")
-    t = data[:, header.index("time")]
-    if t.size < 2:
-        raise RecordingError(f"{path}: needs at least 2 rows, has {t.size}")
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        i = int(np.argmax(dt <= 0))
-        raise RecordingError(f"{path}: time is not strictly increasing at row {i + 2} "
-                             f"({t[i]:g} s then {t[i + 1]:g} s)")
 
 
 def _meta(path: Path, schema_meta: dict | None) -> dict:
