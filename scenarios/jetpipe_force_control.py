@@ -98,8 +98,13 @@ def run(ctx):
     curve = static_curve(sim.cfg)
     i_sat = jet_saturation_current_a(sim.cfg)
     metrics = {"static_gain_n_per_a": curve.slope_n_per_a(MEAN_N), "jet_saturation_current_a": i_sat}
+    _tracking(ctx, sim, curve, metrics)
+    _frequency_responses(ctx, sim, curve, i_sat, metrics)
+    return metrics
 
-    # Fig. 18: proportional vs feedforward at 5 Hz
+
+def _tracking(ctx, sim, curve, metrics):
+    """Fig. 18 (proportional vs feedforward at 5 Hz) and Fig. 15 (servo rate at 7 Hz, k_p = 20)."""
     fig, axes = plt.subplots(1, 2, figsize=(12, 4))
     for ff, label in [(False, "proportional"), (True, "feedforward + proportional")]:
         rec, _, err = tracking(sim, curve, 20.0, 5.0, 5.0, feedforward=ff, duration=0.6 if ctx.fast else 1.0)
@@ -107,8 +112,6 @@ def run(ctx):
         axes[0].plot(rec.time, rec["force.piston"], label=f"{label} (max err {err:.2f} N)")
     axes[0].plot(rec.time, rec["force_ref.piston"], "k--", lw=0.8, label="desired")
     axes[0].set_title("Fig. 18: 5 Hz, k_p = 20, 1 kHz")
-
-    # Fig. 15: servo rate at 7 Hz, k_p = 20
     logger = ctx.rerun_logger(sim.rerun_robot(), "jetpipe force control, 7 Hz")
     for rate in (70.0, 500.0):
         rec, ctl, err = tracking(sim, curve, 20.0, 7.0, 5.0, rate_hz=rate, duration=0.6 if ctx.fast else 1.5)
@@ -132,7 +135,9 @@ def run(ctx):
     axes[1].set_ylabel("force error [N]")
     ctx.savefig(fig, "tracking.png")
 
-    # Fig. 14 (+ 16, 17): frequency responses
+
+def _frequency_responses(ctx, sim, curve, i_sat, metrics):
+    """Fig. 14 (bandwidth against k_p, saturation onset), Figs. 16-17 (gain and amplitude)."""
     if ctx.fast:
         gains, freqs, periods = [20.0], np.array([1.0, 5.0, 15.0, 30.0]), (1.0, 1.0)
         extra_gains, amps = [], []
@@ -155,10 +160,18 @@ def run(ctx):
         fsat.append(max_frequency_before_saturation(freqs, imax, i_sat))
         metrics[f"bw_hz_kp_{gain_name(kp)}"] = bw if np.isfinite(bw) else float(freqs[-1])
         metrics[f"max_freq_before_saturation_hz_kp_{gain_name(kp)}"] = fsat[-1]
-
     onset = saturation_onset_kp(gains, bws, fsat)
     if onset is not None:
         metrics["saturation_onset_kp"] = onset
+    _plot_bandwidth(ctx, gains, bws, fsat, onset)
+    _plot_responses(ctx, freqs, responses)
+    for key, (g, _) in responses.items():
+        if key[0] == 30.0:
+            bw = bandwidth_hz(freqs, g)
+            metrics[f"bw_hz_kp_30_amp_{key[1]:g}n"] = bw if np.isfinite(bw) else float(freqs[-1])
+
+
+def _plot_bandwidth(ctx, gains, bws, fsat, onset):
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(gains, bws, "o-", label="-3 dB bandwidth")
     if onset is not None:
@@ -171,6 +184,8 @@ def run(ctx):
     ax.legend(fontsize=8)
     ctx.savefig(fig, "bandwidth_vs_gain.png")
 
+
+def _plot_responses(ctx, freqs, responses):
     fig, axes = plt.subplots(2, 2, figsize=(12, 7), sharex=True)
     for col, (title, keys) in enumerate([
             ("Fig. 16: effect of gain (5 N amplitude)", [(k, 5.0) for k in (2.0, 5.0, 20.0, 120.0) if (k, 5.0) in responses]),
@@ -189,11 +204,6 @@ def run(ctx):
         for a in axes[:, col]:
             a.grid(True, which="both", alpha=0.3)
     ctx.savefig(fig, "frequency_response.png")
-    for key, (g, _) in responses.items():
-        if key[0] == 30.0:
-            bw = bandwidth_hz(freqs, g)
-            metrics[f"bw_hz_kp_30_amp_{key[1]:g}n"] = bw if np.isfinite(bw) else float(freqs[-1])
-    return metrics
 
 
 if __name__ == "__main__":
