@@ -66,34 +66,14 @@ def run(ctx):
     sim.reset(None)
     rec = sim.run(OpenLoopCurrent(fn), duration, record_hz=100.0)
     t, i_cmd, force, x_jp = rec.time, rec["i_cmd.piston"], rec["force.piston"], rec["x_jet.piston"]
-
     major = (t >= knots[1]) & (t <= knots[3])  # the major loop, up then down
     n_fit = 30 if ctx.fast else 120
     idx = np.nonzero(major)[0]
     idx = idx[np.linspace(0, idx.size - 1, n_fit).astype(int)]
     truth = np.array([cfg.ports.discharge_coefficient, cfg.jet.offset_m / 1e-4,
                       cfg.leak.slope_m2 / 1e-7, cfg.leak.offset_m2 / 1e-7])
-    start = truth * np.array([0.8, 0.5, 0.6, 1.4])
-    warm = {}
-
-    def sse(p):
-        return float(np.sum((model_force(p, x_jp[idx], cfg, warm) - force[idx]) ** 2))
-
-    # downhill simplex, restarted at its own minimum as Numerical Recipes (the paper's [24])
-    # advises, since a collapsed simplex can stop short of the minimum
-    options = {"maxfev": 120 if ctx.fast else 1000, "xatol": 1e-4, "fatol": 1e-3}
-    res = minimize(sse, start, method="Nelder-Mead", options=options)
-    for _ in range(0 if ctx.fast else 3):
-        again = minimize(sse, res.x, method="Nelder-Mead", options=options)
-        improved = again.fun < res.fun * (1 - 1e-4)
-        again.nit += res.nit
-        res = again if again.fun <= res.fun else res
-        if not improved:
-            break
-    warm.clear()
-    fitted = model_force(res.x, x_jp[idx], cfg, warm)
+    res, fitted = _fit_static_model(cfg, x_jp[idx], force[idx], truth, ctx.fast)
     rmse = float(np.sqrt(np.mean((fitted - force[idx]) ** 2)))
-
     # hysteresis widths: jet loop (Fig. 6a) and force loop, between the up and down branches
     up = major & (np.gradient(i_cmd) > 0)
     down = major & (np.gradient(i_cmd) < 0)
@@ -111,6 +91,51 @@ def run(ctx):
         k0 = 5 + 6 * k  # index in waypoints of this loop's first top
         ends = [np.interp(knots[k0 + 2 * c], t, force) for c in (1, 2)]  # tops after cycles 1, 2
         closure.append(float(abs(ends[1] - ends[0])))
+    _plot(ctx, cfg, i_cmd, force, x_jp, idx, fitted, rmse, jet_half_width_pct)
+    return {
+        "loop_fit_rmse_n": rmse,
+        "cd_fit": float(res.x[0]), "cd_true": float(truth[0]),
+        "offset_fit_mm": float(res.x[1] * 0.1), "offset_true_mm": float(truth[1] * 0.1),
+        "leak_slope_fit_mm2": float(res.x[2] * 0.1), "leak_slope_true_mm2": float(truth[2] * 0.1),
+        "leak_offset_fit_mm2": float(res.x[3] * 0.1), "leak_offset_true_mm2": float(truth[3] * 0.1),
+        # steady pressures depend only on area ratios: C_d and the leak areas are identifiable
+        # only together (the paper: leak "obtained in combination with" C_d); the ratio is
+        "leak_offset_over_cd_fit_mm2": float(0.1 * res.x[3] / res.x[0]),
+        "leak_offset_over_cd_true_mm2": float(0.1 * truth[3] / truth[0]),
+        "fit_iterations": int(res.nit),
+        "jet_hysteresis_half_width_pct": jet_half_width_pct,
+        "force_loop_max_gap_n": float(np.max(branch(down, force) - branch(up, force))),
+        "minor_loop_closure_n": float(max(closure)),  # force gap between passes of a loop's top
+        "max_force_n": float(np.max(force)),
+    }
+
+
+def _fit_static_model(cfg, x_jp, force, truth, fast: bool):
+    """The static model's (C_d, jet offset, leak slope, leak offset) fitted to the loop's
+    (x_jp, force) samples by the downhill simplex, as the paper did; (result, fitted force)."""
+    start = truth * np.array([0.8, 0.5, 0.6, 1.4])
+    warm = {}
+
+    def sse(p):
+        return float(np.sum((model_force(p, x_jp, cfg, warm) - force) ** 2))
+
+    # downhill simplex, restarted at its own minimum as Numerical Recipes (the paper's [24])
+    # advises, since a collapsed simplex can stop short of the minimum
+    options = {"maxfev": 120 if fast else 1000, "xatol": 1e-4, "fatol": 1e-3}
+    res = minimize(sse, start, method="Nelder-Mead", options=options)
+    for _ in range(0 if fast else 3):
+        again = minimize(sse, res.x, method="Nelder-Mead", options=options)
+        improved = again.fun < res.fun * (1 - 1e-4)
+        again.nit += res.nit
+        res = again if again.fun <= res.fun else res
+        if not improved:
+            break
+    warm.clear()
+    return res, model_force(res.x, x_jp, cfg, warm)
+
+
+def _plot(ctx, cfg, i_cmd, force, x_jp, idx, fitted, rmse, jet_half_width_pct):
+    """Figs. 9a, 6a and 9b side by side."""
     curve = static_curve(cfg)
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
     ax = axes[0]
@@ -136,23 +161,6 @@ def run(ctx):
     for a in axes:
         a.grid(alpha=0.3)
     ctx.savefig(fig, "static_loop.png")
-
-    return {
-        "loop_fit_rmse_n": rmse,
-        "cd_fit": float(res.x[0]), "cd_true": float(truth[0]),
-        "offset_fit_mm": float(res.x[1] * 0.1), "offset_true_mm": float(truth[1] * 0.1),
-        "leak_slope_fit_mm2": float(res.x[2] * 0.1), "leak_slope_true_mm2": float(truth[2] * 0.1),
-        "leak_offset_fit_mm2": float(res.x[3] * 0.1), "leak_offset_true_mm2": float(truth[3] * 0.1),
-        # steady pressures depend only on area ratios: C_d and the leak areas are identifiable
-        # only together (the paper: leak "obtained in combination with" C_d); the ratio is
-        "leak_offset_over_cd_fit_mm2": float(0.1 * res.x[3] / res.x[0]),
-        "leak_offset_over_cd_true_mm2": float(0.1 * truth[3] / truth[0]),
-        "fit_iterations": int(res.nit),
-        "jet_hysteresis_half_width_pct": jet_half_width_pct,
-        "force_loop_max_gap_n": float(np.max(branch(down, force) - branch(up, force))),
-        "minor_loop_closure_n": float(max(closure)),  # force gap between passes of a loop's top
-        "max_force_n": float(np.max(force)),
-    }
 
 
 if __name__ == "__main__":
