@@ -137,34 +137,8 @@ def run(ctx):
                     "per_joint": 100 * np.median(np.abs(q - qr) / span, axis=0)}
     best_key = min(("pidf", "model"), key=lambda k: res[k]["curve"][0])
 
-    rec, r = recs["pidf"], res["pidf"]
-    fig, axes = plt.subplots(4, 5, figsize=(16, 10), sharex=True)
-    for ax, j in zip(axes.flat, PLOTTED):
-        i = names.index(j)
-        ax.plot(rec.time, np.degrees(r["q"][:, i]), "r-", lw=0.9)
-        ax.plot(rec.time, np.degrees(res["model"]["q"][:, i]), "b-", lw=0.6, alpha=0.7)
-        ax.plot(rec.time, np.degrees(r["qr"][:, i]), "k-", lw=0.7)
-        ax.set_title(f"{j} ({r['per_joint'][i]:.1f} % / {res['model']['per_joint'][i]:.1f} %)", fontsize=8)
-        ax.tick_params(labelsize=7)
-    for ax in axes[-1]:
-        ax.set_xlabel("time [s]")
-    for ax in axes[:, 0]:
-        ax.set_ylabel("angle [deg]")
-    fig.suptitle(f"humanoid38, 20 of 38 joints: reference (black), PIDF (red; median error {r['curve'][0]:.1f} % of "
-                 f"range, best lag {r['lags'][r['best']]:.0f} ms), model-based PIDF (blue; "
-                 f"{res['model']['curve'][0]:.1f} %) -- paper 002 Fig. 7: PIDF 3.4 %, ~100 ms", fontsize=10)
-    fig.tight_layout()
-    ctx.savefig(fig, "tracking.png")
-    fig, ax = plt.subplots(figsize=(6, 4))
-    for key, label in (("pidf", "PIDF"), ("model", "model-based PIDF"), ("pidf_tubes_same_gains", "PIDF, with tubes, same gains"),
-                       ("pidf_tubes", "PIDF, with tubes, k_F re-tuned")):
-        ax.plot(res[key]["lags"], res[key]["curve"], label=label)
-    ax.axhline(3.4, color="k", ls=":", lw=0.8, label="paper, PIDF at zero lag")
-    ax.set_xlabel("time lag [ms]")
-    ax.set_ylabel("median |error| [% of joint range]")
-    ax.set_title("humanoid38 tracking error vs lag (cf. paper 002 Fig. 6B)")
-    ax.legend(fontsize=8)
-    ctx.savefig(fig, "tracking_lag.png")
+    rec = recs["pidf"]
+    _plot(ctx, rec, res, names)
     ctx.save_recording(rec, "tracking_pidf.csv")
     ctx.save_recording(recs["model"], "tracking_model.csv")
 
@@ -197,6 +171,39 @@ def run(ctx):
         q2 = again.matrix("q", names)
         metrics["repeat_diff_pct_range"] = float(100 * np.median(np.abs(q2 - res["pidf"]["q"]) / span))
     return metrics
+
+
+def _plot(ctx, rec, res, names):
+    """tracking.png (20 joints, PIDF and model-based PIDF against the reference) and
+    tracking_lag.png (median error against time lag, with and without tubes)."""
+    r = res["pidf"]
+    fig, axes = plt.subplots(4, 5, figsize=(16, 10), sharex=True)
+    for ax, j in zip(axes.flat, PLOTTED):
+        i = names.index(j)
+        ax.plot(rec.time, np.degrees(r["q"][:, i]), "r-", lw=0.9)
+        ax.plot(rec.time, np.degrees(res["model"]["q"][:, i]), "b-", lw=0.6, alpha=0.7)
+        ax.plot(rec.time, np.degrees(r["qr"][:, i]), "k-", lw=0.7)
+        ax.set_title(f"{j} ({r['per_joint'][i]:.1f} % / {res['model']['per_joint'][i]:.1f} %)", fontsize=8)
+        ax.tick_params(labelsize=7)
+    for ax in axes[-1]:
+        ax.set_xlabel("time [s]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("angle [deg]")
+    fig.suptitle(f"humanoid38, 20 of 38 joints: reference (black), PIDF (red; median error {r['curve'][0]:.1f} % of "
+                 f"range, best lag {r['lags'][r['best']]:.0f} ms), model-based PIDF (blue; "
+                 f"{res['model']['curve'][0]:.1f} %) -- paper 002 Fig. 7: PIDF 3.4 %, ~100 ms", fontsize=10)
+    fig.tight_layout()
+    ctx.savefig(fig, "tracking.png")
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for key, label in (("pidf", "PIDF"), ("model", "model-based PIDF"), ("pidf_tubes_same_gains", "PIDF, with tubes, same gains"),
+                       ("pidf_tubes", "PIDF, with tubes, k_F re-tuned")):
+        ax.plot(res[key]["lags"], res[key]["curve"], label=label)
+    ax.axhline(3.4, color="k", ls=":", lw=0.8, label="paper, PIDF at zero lag")
+    ax.set_xlabel("time lag [ms]")
+    ax.set_ylabel("median |error| [% of joint range]")
+    ax.set_title("humanoid38 tracking error vs lag (cf. paper 002 Fig. 6B)")
+    ax.legend(fontsize=8)
+    ctx.savefig(fig, "tracking_lag.png")
 
 
 if __name__ == "__main__":

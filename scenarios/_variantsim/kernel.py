@@ -94,7 +94,12 @@ def step_ms(u, q, qd, bias, P, S, dt, nsub, tau):
     explicit sub-steps; write the generalised force on the two links into ``tau`` (2,) [N m].
 
     u (4,): command after valve hysteresis [V]; q, qd (2,): link angle [rad] and rate [rad/s]
-    (held over dt); bias (2,): MuJoCo's qfrc_bias (gravity + Coriolis) for the stick test."""
+    (held over dt); bias (2,): MuJoCo's qfrc_bias (gravity + Coriolis) for the stick test.
+
+    One compiled loop over the explicit sub-steps, its blocks in the order of the equations
+    (valve areas, flows, pressures, piston forces, friction states): a transcription kept whole
+    so it can be read against the independent simulator's written model, not against
+    pneumasim's code."""
     h = dt / nsub
     tau_cyl = np.zeros(2)
     for _ in range(nsub):
