@@ -5,7 +5,8 @@ the spirit of Kokoro's Diego-San (paper 002 §VI: 38 DOFs without the hands, one
 cylinder or vane per joint, two valves and two pressure sensors per actuator, 76 controls).
 The paper gives no dimensions, so everything here is a plausible design derived from a few
 stated rules.  This script writes both files, and the joint table of ``README.md``, from the
-tables below, so every number is derived and reproducible
+tables of ``design.py`` (loads and sizes by ``sizing.py``, the MJCF by ``mjcf.py``), so every
+number is derived and reproducible
 (``python -m models.humanoid38.generate``; random draws come from ``SEED``).
 
 What is derived, in order:
