@@ -64,7 +64,7 @@ class Robot:
 
     def with_fluid(self, fluid: FluidCfg) -> "Robot":
         """The same MuJoCo model with other fluid parameters (perturbations, fitted values)."""
-        out = _assemble(self.name, self.model, fluid, self.mjcf_path)
+        out = assemble_robot(self.name, self.model, fluid, self.mjcf_path)
         out.effects, out.fitted = self.effects, self.fitted
         return out
 
@@ -94,7 +94,7 @@ def load_robot(name: str, *, fluid: FluidCfg | None = None, scene: bool = False,
         raise UnknownNameError("model", name, models.available()) from None
     model = compile_mjcf(path)
     fluid = fluid or load_fluid(models.fluid_path(name))
-    robot = _assemble(name, model, fluid, path)
+    robot = assemble_robot(name, model, fluid, path)
     return robot if fitted is None else _with_fitted(robot, fitted)
 
 
@@ -117,7 +117,9 @@ def _with_fitted(robot: Robot, fitted) -> Robot:
     return out
 
 
-def _assemble(name, model, fluid, path) -> Robot:
+def assemble_robot(name, model, fluid, path) -> Robot:
+    """The Robot of a compiled MJCF ``model`` and its fluid parameters, each fluid actuator
+    matched to the MJCF's plain force actuator of that name (ConfigError otherwise)."""
     ids = []
     mj_names = [model.actuator(i).name for i in range(model.nu)]
     for act in fluid.actuators:

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from identification.doctor.bench.chamber_fit import _leak_and_heat
+from identification.doctor.bench.chamber_fit import leak_and_heat
 from identification.doctor.bench.diagnose import diagnose_bench
 from pneumatics.bench.model import load_bench, replay_cylinder
 from pneumasim.cli import main as cli_main
@@ -69,7 +69,7 @@ def test_adiabatic_leak_is_isentropic_and_the_compiled_twin_agrees():
     t = np.linspace(0, 20, 401)       # the doctor's RK4 step (0.05 s): same nodes, same scheme
     P2, _ = integrate(t, p0, TW + 5, lambda p, T: chamber_rates(p, T, V, hA, TW, mdot_out=leak_mass_flow(p, PR, G)))
     cfg = load_bench("bench_chamber")
-    P3 = _leak_and_heat([p0, math.log(tau_leak), 5.0, math.log(tau_th)], t, cfg)
+    P3 = leak_and_heat([p0, math.log(tau_leak), 5.0, math.log(tau_th)], t, cfg)
     assert np.max(np.abs(P3 - P2)) < 1e-6 * p0
 
 

@@ -5,7 +5,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from identification.doctor.valve_arm.thermal import _track_compiled, track_reference
+from identification.doctor.valve_arm.thermal import track_compiled, track_reference
 from pneumatics.effects.effect_set import EffectSet
 from pneumatics.effects.heat_transfer import chamber_flows, closed_chamber, thermal_step
 from pneumatics.robot import load_robot
@@ -102,6 +102,6 @@ def test_temperature_observer_compiled_equals_reference():
     m = 2e-4 * np.sin(2 * np.pi * 2.1 * t[:, None] + rng.uniform(0, 3, n))
     args = (p, vol, vdot, np.maximum(m, 0), np.minimum(m, 0), np.array([0.05, 0.2]), R, K, T_REF)
     ref = track_reference(*args)
-    fast = _track_compiled(*[np.ascontiguousarray(a, float) for a in args[:6]], R, K, T_REF, 1e-3)
+    fast = track_compiled(*[np.ascontiguousarray(a, float) for a in args[:6]], R, K, T_REF, 1e-3)
     assert np.allclose(ref, fast, rtol=1e-12, atol=1e-9)
     assert ref.min() > 200 and ref.max() < 500

@@ -93,7 +93,7 @@ def test_reordered_and_extra_mujoco_actuators(tmp_path, rng):
     """Fluid actuators need not be MuJoCo actuators 0..n-1 in TOML order: the kernel indexes
     data.actuator_length and data.ctrl by MuJoCo id."""
     import mujoco
-    from pneumatics.robot import _assemble
+    from pneumatics.robot import assemble_robot
 
     xml = models.mjcf_path("arm2").read_text().replace(
         '<motor class="arm2" name="shoulder" joint="shoulder" gear="0.030"/>',
@@ -111,7 +111,7 @@ def test_reordered_and_extra_mujoco_actuators(tmp_path, rng):
     finally:
         f.unlink()
     base = load_robot("arm2")
-    odd = _assemble("arm2", model, base.fluid, None)
+    odd = assemble_robot("arm2", model, base.fluid, None)
     assert list(odd.actuator_ids) == [2, 1]
     runs = []
     for robot in (base, odd):

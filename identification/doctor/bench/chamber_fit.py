@@ -78,7 +78,7 @@ def model_pressure(hyp: str, theta, t, tc: float, cfg: BenchChamberCfg) -> np.nd
         dT, tau = theta[1], math.exp(theta[2])
         return ps * (Tw + dT * np.exp(-s / tau)) / (Tw + dT)
     if hyp == "external_leak+heat_transfer":
-        return _leak_and_heat(theta, s, cfg)
+        return leak_and_heat(theta, s, cfg)
     if hyp == "external_leak+pressure_sensor_offset":
         tau, off = math.exp(theta[1]), theta[2]
         pt = ps - off
@@ -87,7 +87,11 @@ def model_pressure(hyp: str, theta, t, tc: float, cfg: BenchChamberCfg) -> np.nd
     raise ValueError(hyp)
 
 
-def _leak_and_heat(theta, s, cfg: BenchChamberCfg):
+def leak_and_heat(theta, s, cfg: BenchChamberCfg):
+    """Pressure [Pa] at times ``s`` after the shut of a chamber that both leaks (laminar, time
+    constant tau_l) and exchanges heat with its wall (tau_th, gas dT above the wall at the shut):
+    the energy balance of Richer & Hurmuzlu 2000 with the leak's mass flow, by RK4;
+    ``theta`` = (p_shut, log tau_l, dT, log tau_th)."""
     ps, tau_l, dT, tau_th = theta[0], math.exp(theta[1]), theta[2], math.exp(theta[3])
     R, k, Tw, pr = cfg.gas_constant_j_per_kg_k, cfg.heat_capacity_ratio, cfg.wall_temperature_k, cfg.room_pa
     T0 = Tw + dT

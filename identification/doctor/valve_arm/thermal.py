@@ -78,7 +78,8 @@ def track_reference(p, vol, vdot, m_in, m_out, hA, R, k, t_ref, dt=FINE_DT):
 
 if njit is not None:
     @njit(cache=True)
-    def _track_compiled(p, vol, vdot, m_in, m_out, hA, R, k, t_ref, dt):  # pragma: no cover - compiled
+    def track_compiled(p, vol, vdot, m_in, m_out, hA, R, k, t_ref, dt):  # pragma: no cover - compiled
+        """:func:`track_reference` compiled (the same Heun steps, chamber by chamber)."""
         F, n = p.shape
         T = np.empty((F, n))
         for c in range(n):
@@ -111,7 +112,7 @@ def gas_temperatures(exp: Experiment, mods, u_fine: np.ndarray, compiled: bool =
     args = _inputs(exp, mods, cs, u_fine)
     consts = (gas.gas_constant_j_per_kg_k, gas.heat_capacity_ratio, gas.temperature_k)
     if compiled and njit is not None:
-        T = _track_compiled(*[np.ascontiguousarray(a, float) for a in args], *consts, FINE_DT)
+        T = track_compiled(*[np.ascontiguousarray(a, float) for a in args], *consts, FINE_DT)
     else:
         T = track_reference(*args, *consts)
     out[:, cs] = T
