@@ -223,7 +223,7 @@ def _print_table(results: dict):
         table.add_row(name, str(r["chambers"]), f"{r['bare_steps_per_s']:,.0f}", f"{r['full_steps_per_s']:,.0f}",
                       f"{r['ratio']:.2f}", f"{r['realtime_factor']:.0f}",
                       f"{r['rerun_overhead']:+.0%}" if "rerun_overhead" in r else "-")
-    Console().print(table)
+    Console(width=132).print(table)
     paths = Table(title="against MuJoCo's C loop (mujoco.rollout), commands changing at 100 Hz")
     for col in ("model", "C steps/s", "Python mj_step", "open loop", "closed loop (PIDF)", "ratio_vs_c",
                 "closed_loop_ratio_vs_c"):
@@ -233,7 +233,7 @@ def _print_table(results: dict):
             paths.add_row(name, f"{r['bare_c_steps_per_s']:,.0f}", f"{r['bare_py_steps_per_s']:,.0f}",
                           f"{r['full_open_loop_steps_per_s']:,.0f}", f"{r['full_closed_loop_steps_per_s']:,.0f}",
                           f"{r['ratio_vs_c']:.2f}", f"{r['closed_loop_ratio_vs_c']:.2f}")
-    Console().print(paths)
+    Console(width=132).print(paths)
     if "doctor_replay" in results:
         r = results["doctor_replay"]
         print(f"doctor chamber replays: {1e3 * r['seconds_per_data_second']:.1f} ms per second of arm2 data")
