@@ -101,6 +101,8 @@ def retune_kf(robot, range_per_volt, ref, lin, effects, duration_s: float, grid)
 
 
 def track(robot, cfg, ref, lin, duration, seed, logger=None, model: bool = False, effects=None):
+    if effects is not None and robot.effects is not None:  # a fitted model's effects stay on
+        effects = robot.effects.combined(effects)
     sim = Simulation(robot, effects=effects)
     sim.reset(qpos=ref.reference(0.0), pressure_pa=START_PRESSURE_PA)
     ctrl = linearized_model_pidf(cfg, ref, lin, robot) if model else linearized_pidf(cfg, ref, lin)

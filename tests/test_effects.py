@@ -237,3 +237,19 @@ def test_an_asymmetric_valve_leak_moves_the_pressure_a_closed_valve_settles_at()
     more_exhaust = _settle_at_null(EffectSet(valve_leak_m2={"elbow.a": 3e-8}, valve_leak_exhaust_m2={"elbow.a": 6e-8}))
     more_supply = _settle_at_null(EffectSet(valve_leak_m2={"elbow.a": 6e-8}, valve_leak_exhaust_m2={"elbow.a": 3e-8}))
     assert 2e5 < more_exhaust < same - 5e4 and same + 5e4 < more_supply < 7e5
+
+
+def test_effect_sets_combine_and_refuse_one_family_at_one_place_twice():
+    """A fitted model's effects and a study's (tubes on a fitted humanoid) run together; the
+    same family at the same place in both is an error, not a silent choice."""
+    from pneumatics.errors import ConfigError
+
+    fitted = EffectSet().add("valve_lag", "elbow.a", {"time_constant_s": 0.02}).add(
+        "supply_droop", "all", {"droop_pa_per_kg_s": 1e7})
+    tubes = EffectSet().add("line_dynamics", "elbow.a", {"delay_s": 0.005, "volume_m3": 2e-6})
+    both = fitted.combined(tubes)
+    assert both.valve_lag_s == {"elbow.a": 0.02} and both.supply_droop_pa_per_kg_s == 1e7
+    assert both.line_dynamics == {"elbow.a": {"delay_s": 0.005, "volume_m3": 2e-6}}
+    assert fitted.line_dynamics == {} and tubes.valve_lag_s == {}  # neither is changed
+    with pytest.raises(ConfigError, match="valve_lag_s is set at elbow.a in both"):
+        both.combined(EffectSet().add("valve_lag", "elbow.a", {"time_constant_s": 0.01}))

@@ -8,11 +8,12 @@ on by name, its parameters checked against their units.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import UnknownNameError
+from ..errors import ConfigError, UnknownNameError
 from .end_stop import END_STOP_TIMECONST_S
 from .valve_leak import WIDTH_V
 
@@ -77,6 +78,23 @@ class EffectSet:
         fam = get_family(family)
         fam.add_to(self, place, fam.params(values, form))
         return self
+
+    def combined(self, other: "EffectSet") -> "EffectSet":
+        """A new EffectSet with the effects of both (a fitted model's and a study's, e.g. tubes
+        added to a fitted humanoid).  One family at one place in both, or two supply droops,
+        is a ConfigError naming it: which of the two should win is the caller's choice."""
+        out = EffectSet(valve_leak_width_v=self.valve_leak_width_v)
+        for f in dataclasses.fields(EffectSet):
+            mine, theirs = getattr(self, f.name), getattr(other, f.name)
+            if isinstance(mine, dict):
+                both = sorted(set(mine) & set(theirs))
+                if both:
+                    raise ConfigError(f"combining effect sets: {f.name} is set at {', '.join(both)} in both")
+                getattr(out, f.name).update({**mine, **theirs})
+        if self.supply_droop_pa_per_kg_s and other.supply_droop_pa_per_kg_s:
+            raise ConfigError("combining effect sets: a supply droop in both")
+        out.supply_droop_pa_per_kg_s = self.supply_droop_pa_per_kg_s or other.supply_droop_pa_per_kg_s
+        return out
 
     def _array(self, attr: str, kind: str, names: list) -> np.ndarray:
         """(len(names),) values of the per-place effect ``attr``; 0 where it is off."""
