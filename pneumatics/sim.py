@@ -39,6 +39,7 @@ from .effects.valve_lag import lag_decay
 from .effects.valve_leak import leak_areas
 from . import arguments
 from .errors import ArgumentError, PneumasimError
+from .command_kernel import CLIPPED, OK, command_step
 from .kernel import fluid_step_fast, pack, run_steps_compiled
 from .robot import Robot
 from .tables import valve_areas_table
@@ -211,6 +212,21 @@ class Simulation:
         if u.shape != self.command.shape:
             raise ArgumentError(f"set_command(command_v): expected shape {self.command.shape} "
                                 f"(one per chamber), got {u.shape}")
+        if self.kernel == "fast" and not self._valve_dynamics:
+            lo, hi = COMMAND_RANGE_V
+            status = command_step(u, lo, hi, COMMAND_SLIP_V, self.command, self.spool, self.spool_position,
+                                  self._hysteresis, self.tables.valve, self._valve_leak, self._valve_leak_exhaust,
+                                  self.effects.valve_leak_width_v, self.areas)
+            if status == OK:
+                return
+            if status == CLIPPED:
+                if not self._clip_warned:
+                    self._clip_warned = True
+                    warnings.warn(f"valve commands outside {lo:g}-{hi:g} V (min {u.min():.3g}, max {u.max():.3g}) "
+                                  f"at t = {self.time:.3f} s are clipped; warned once per run",
+                                  CommandClippedWarning, stacklevel=2)
+                return
+            # NOT_FINITE, UNIT_SLIP: nothing was changed; the numpy path below names the fault
         if not np.all(np.isfinite(u)):
             bad = [f"{a}.{c}" for (a, c), ok in zip(self.robot.chamber_names, np.isfinite(u)) if not ok]
             raise ArgumentError(f"set_command(command_v): valve commands are NaN or inf for chamber(s) "
