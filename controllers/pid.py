@@ -95,6 +95,7 @@ class PIDF:
     _integral: np.ndarray = field(default=None, init=False)
     _deriv: np.ndarray = field(default=None, init=False)
     _last_err: np.ndarray = field(default=None, init=False)
+    _gains: tuple = field(default=None, init=False)
 
     def reset(self):
         self._integral = None
@@ -113,16 +114,18 @@ class PIDF:
             self._integral = np.zeros_like(err)
             self._deriv = np.zeros_like(err)
             self._last_err = err.copy()
+            # the gains as arrays, once per run (the control law runs every period)
+            ki = np.broadcast_to(np.asarray(c.ki_v_per_rad_s, float), err.shape)
+            self._gains = (np.asarray(c.kp_v_per_rad), np.asarray(c.kd_v_s_per_rad), ki,
+                           c.integral_limit_v / np.maximum(ki, 1e-12))
+        kp, kd, ki, lim = self._gains
         raw = (err - self._last_err) / dt
         alpha = dt / (c.deriv_filter_s + dt)
         self._deriv += alpha * (raw - self._deriv)
         self._last_err = err.copy()
-        ki = np.broadcast_to(np.asarray(c.ki_v_per_rad_s, float), err.shape)
         self._integral += err * dt
-        lim = c.integral_limit_v / np.maximum(ki, 1e-12)
         np.clip(self._integral, -lim, lim, out=self._integral)
-        return (np.asarray(c.kp_v_per_rad) * err + np.asarray(c.kd_v_s_per_rad) * self._deriv
-                + ki * self._integral)
+        return kp * err + kd * self._deriv + ki * self._integral
 
     def kf(self, n_joint: int) -> np.ndarray:
         return np.broadcast_to(np.asarray(self.cfg.kf_v_per_bar, float), (n_joint,))

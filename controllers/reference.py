@@ -71,9 +71,17 @@ class JointReference:
         return self._spline
 
     def reference(self, t: float) -> np.ndarray:
-        """(n_joint,) position at t (held at the ends)."""
-        t = min(max(t, self.time[0]), self.time[-1])
-        return np.array([np.interp(t, self.time, self.q[:, j]) for j in range(self.q.shape[1])])
+        """(n_joint,) position at t (held at the ends): linear between samples, every joint at
+        once, with numpy.interp's arithmetic (slope times offset plus the left sample), so the
+        result is that of ``np.interp`` per joint, bit for bit."""
+        time = self.time
+        if t <= time[0]:
+            return self.q[0].copy()
+        if t >= time[-1]:
+            return self.q[-1].copy()
+        i = int(np.searchsorted(time, t, side="right")) - 1
+        slope = (self.q[i + 1] - self.q[i]) / (time[i + 1] - time[i])
+        return slope * (t - time[i]) + self.q[i]
 
     def derivatives(self, t: np.ndarray):
         """(q, qd, qdd) each (len(t), n_joint) from the smoothing splines."""

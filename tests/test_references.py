@@ -77,3 +77,20 @@ def test_stored_files_are_recordings_with_metadata():
     rec = read_csv(reference_path("arm2", 1))
     assert rec.names("ref") == ["shoulder", "elbow"]
     assert rec.meta["model"] == "arm2" and "python -m controllers.reference" in rec.meta["regenerate"]
+
+
+def test_reference_is_numpy_interp_per_joint_bit_for_bit():
+    """JointReference.reference interpolates every joint at once; the obviously-correct
+    reference is numpy.interp per joint (held at the ends): equal to the last bit, at random
+    times, at every sample and outside the reference's span."""
+    from controllers.reference import hand_moved
+    from pneumatics.robot import load_robot
+
+    robot = load_robot("arm2")
+    ref = hand_moved(robot.joint_names, robot.joint_range(), 10.0, seed=3)
+    rng = np.random.default_rng(1)
+    times = np.concatenate([rng.uniform(ref.time[0] - 1.0, ref.time[-1] + 1.0, 3000), ref.time])
+    for t in times:
+        held = min(max(t, ref.time[0]), ref.time[-1])
+        slow = np.array([np.interp(held, ref.time, ref.q[:, j]) for j in range(ref.q.shape[1])])
+        np.testing.assert_array_equal(ref.reference(float(t)), slow)
