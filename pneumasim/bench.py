@@ -185,8 +185,10 @@ def bench_sweep(quick: bool) -> dict:
     return out
 
 
-def run_bench(quick: bool = False, out: str | Path = "runs/bench") -> dict:
-    """Run the benchmarks; ``out`` is checked first and replaced whole at the end."""
+def run_bench(quick: bool = False, out: str | Path = "runs/bench", scaling: bool = False) -> dict:
+    """Run the benchmarks; ``out`` is checked first and replaced whole at the end.  ``scaling``:
+    also the cost per step against the number of chambers and the doctor's time against the
+    recording length (:mod:`pneumasim.bench_scaling`; scaling.png beside bench.json)."""
     steps = 20_000 if quick else 100_000
     results = {}
     with OutputFolder(out) as folder, Progress("bench", live=False) as progress:
@@ -204,6 +206,11 @@ def run_bench(quick: bool = False, out: str | Path = "runs/bench") -> dict:
         results["doctor"] = bench_doctor(quick)
         progress.say("sweep overheads")
         results["sweep"] = bench_sweep(quick)
+        if scaling:
+            from pneumasim.bench_scaling import run_scaling
+
+            progress.say("scaling: chambers and recording length")
+            results["scaling"] = run_scaling(folder.path)
         _print_table(results)
         atomic_write_json(folder.path / "bench.json", results)
     print(f"wrote {Path(out) / 'bench.json'}")

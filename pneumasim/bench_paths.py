@@ -67,20 +67,29 @@ def recorded_inputs(sim: Simulation, seconds: float):
     rec = run_loop(sim, shipped_controller(sim.robot, seconds), seconds, noise=False)
     cols = [c for a in sim.robot.actuator_names for c in (f"u_a.{a}", f"u_b.{a}")]
     commands = np.stack([rec[c] for c in cols], axis=1)[:-1]
+    ctrl, state0 = ctrl_sequence(sim, commands)
+    return commands, ctrl, state0
+
+
+def ctrl_sequence(sim: Simulation, commands):
+    """(ctrl (P * PERIOD, nu): the actuator forces of every physics step of an open-loop run
+    of ``commands`` (P, C) from the bench's start state, that start state as MuJoCo's full
+    physics state), for replaying the same forces in MuJoCo alone."""
     reset_bench_state(sim)
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state0 = np.empty(mujoco.mj_stateSize(sim.model, spec))
     mujoco.mj_getState(sim.model, sim.data, state0, spec)
-    ctrl = np.empty((commands.shape[0] * PERIOD, sim.model.nu))
+    ctrl = np.empty((len(commands) * PERIOD, sim.model.nu))
     for k, u in enumerate(commands):  # step by step: the ctrl each physics step saw
         sim.set_command(u)
         for s in range(PERIOD):
             ctrl[k * PERIOD + s] = sim.data.ctrl
             sim.step(1)
-    return commands, ctrl, state0
+    return ctrl, state0
 
 
-def _time_bare_c(model, state0, ctrl) -> float:
+def time_bare_c(model, state0, ctrl) -> float:
+    """Seconds MuJoCo's own C loop (``mujoco.rollout``, one thread) takes to step ``ctrl``."""
     data = mujoco.MjData(model)
     spec = int(mujoco.mjtState.mjSTATE_CTRL)
     t0 = time.perf_counter()
@@ -99,7 +108,8 @@ def _time_bare_py(model, state0, ctrl) -> float:
     return time.perf_counter() - t0
 
 
-def _time_open_loop(sim: Simulation, commands) -> float:
+def time_open_loop(sim: Simulation, commands) -> float:
+    """Seconds the simulation takes for ``commands`` (P, C), one per control period."""
     reset_bench_state(sim)
     t0 = time.perf_counter()
     for u in commands:
@@ -124,9 +134,9 @@ def bench_paths(name: str, seconds: float, repeats: int = 3) -> dict:
     commands, ctrl, state0 = recorded_inputs(sim, seconds)
     n = ctrl.shape[0]
     m = sim.model
-    timers = {"bare_c": lambda: _time_bare_c(m, state0, ctrl),
+    timers = {"bare_c": lambda: time_bare_c(m, state0, ctrl),
               "bare_py": lambda: _time_bare_py(m, state0, ctrl),
-              "full_open_loop": lambda: _time_open_loop(sim, commands),
+              "full_open_loop": lambda: time_open_loop(sim, commands),
               "full_closed_loop": lambda: _time_closed_loop(sim, seconds)}
     best = dict.fromkeys(timers, np.inf)
     for fn in timers.values():  # warm-up: first calls allocate and compile

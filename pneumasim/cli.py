@@ -23,7 +23,7 @@ def _cmd_run(args):
 def _cmd_bench(args):
     from pneumasim.bench import run_bench
 
-    run_bench(quick=args.quick, out=args.out)
+    run_bench(quick=args.quick, out=args.out, scaling=args.scaling)
 
 
 def _cmd_doctor(args):
@@ -144,6 +144,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="benchmark the simulation step (writes runs/bench/bench.json)")
     p.add_argument("--quick", action="store_true", help="fewer steps")
     p.add_argument("--out", default="runs/bench", help="output folder")
+    p.add_argument("--scaling", action="store_true",
+                   help="also the cost per step against the number of chambers (up to 200) and the doctor's "
+                        "time against the recording length (scaling.png; a few minutes)")
     p.set_defaults(func=_cmd_bench)
     p = sub.add_parser("doctor", help="find the physics a simulation left out (writes DIR/report.json, .md, .rrd)")
     p.add_argument("--model", required=True, help="model name (pneumasim models)")
