@@ -109,9 +109,9 @@ def _plot(result: dict, path: Path):
     named = [p for p in result["steps"] if not p["model"].startswith("cylinder_bank")]
     ax.plot([p["chambers"] for p in bank], [p["us_per_step"] for p in bank], "o-", label="cylinder bank, fluid layer + MuJoCo")
     ax.plot([p["chambers"] for p in bank], [p["c_us_per_step"] for p in bank], "s--", label="cylinder bank, MuJoCo alone (C loop)")
-    for p in named:
-        ax.plot(p["chambers"], p["us_per_step"], "k^")
-        ax.plot(p["chambers"], p["c_us_per_step"], "kv")
+    for k, p in enumerate(named):
+        ax.plot(p["chambers"], p["us_per_step"], "k^", label="shipped model, fluid layer + MuJoCo" if k == 0 else None)
+        ax.plot(p["chambers"], p["c_us_per_step"], "kv", label="shipped model, MuJoCo alone (C loop)" if k == 0 else None)
         ax.annotate(f"{p['model']} ({p['ratio_vs_c']:.2f}x)", (p["chambers"], p["us_per_step"]),
                     textcoords="offset points", xytext=(5, 5), fontsize=8)
     ax.set_xlabel("chambers")
