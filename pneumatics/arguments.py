@@ -24,6 +24,8 @@ MAX_PRESSURE_OVER_SUPPLY = 2.0
 
 def step_count(n, where: str = "step") -> int:
     """``n`` as an int >= 1 (numpy integers accepted; bools, floats and strings are not)."""
+    if type(n) is int and n >= 1:  # the common case, checked first: step() runs every control period
+        return n
     if isinstance(n, bool) or not isinstance(n, numbers.Integral):
         raise ArgumentError(f"{where}(n): n must be a whole number of physics steps >= 1, got {n!r} "
                             f"({type(n).__name__})")

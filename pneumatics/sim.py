@@ -123,6 +123,8 @@ class Simulation:
         self._fric = self.effects.friction_table(robot, self.model)
         # heat_transfer: those chambers carry a gas temperature [K] and step in Python
         self._thermal, self._conductance = self.effects.heat_arrays(robot)
+        self._thermal_any = bool(self._thermal.any())
+        self._compiled_args = None  # run_steps_compiled's arguments, built at the first step
         self.gas_temperature = np.full(robot.tables.n_chambers, robot.tables.gas.temperature_k)
         self.spool = np.zeros(self.tables.n_chambers)  # command the spool follows (hysteresis)
         self.spool_position = np.zeros(self.tables.n_chambers)  # the spool after lag and line delay
@@ -296,11 +298,16 @@ class Simulation:
     def _physics_steps(self, n: int):
         m, d = self.model, self.data
         self._n_summed += n
-        if self.kernel == "fast" and run_steps_compiled is not None and not self._thermal.any():
-            act, ch, glob = self._packed
-            run_steps_compiled(n, m._address, d._address, self.pressure, self.areas, self._prev_length,
-                               d.actuator_length, d.ctrl, act, ch, glob, d.qpos, d.qvel, self.sums,
-                               d.qfrc_applied, self._fric)
+        if self.kernel == "fast" and run_steps_compiled is not None and not self._thermal_any:
+            args = self._compiled_args
+            if args is None or args[2] is not self.pressure or args[3] is not self.areas or args[12] is not self.sums:
+                # the loop's arguments, made once: MjData's array views stay valid for its life, and
+                # building them (and MjData's address lookups) every call cost a few us a period
+                act, ch, glob = self._packed
+                args = self._compiled_args = (
+                    m._address, d._address, self.pressure, self.areas, self._prev_length, d.actuator_length,
+                    d.ctrl, act, ch, glob, d.qpos, d.qvel, self.sums, d.qfrc_applied, self._fric)
+            run_steps_compiled(n, *args)
             return
         for k in range(n):
             mujoco.mj_step1(m, d)
