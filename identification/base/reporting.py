@@ -35,3 +35,23 @@ def save_figure(fig, path: Path, dpi: int = 100):
     """Write ``fig`` to ``path`` (tight bounding box) atomically, then close it."""
     atomic_save(path, lambda tmp: fig.savefig(tmp, dpi=dpi, bbox_inches="tight"))
     pyplot().close(fig)
+
+
+def summary_head(report: dict, seconds: float | None = None) -> list[str]:
+    """The first two lines of a doctor's ten-second summary: the model, how much data was fitted
+    and held out (and the run's wall time, if given), the verdict and its detail."""
+    d = report["diagnostics"]
+    took = f", {seconds:.0f} s" if seconds is not None else ""
+    return [f"pneumasim doctor — {report['model']}: {d['train_seconds']:.0f} s fitted, "
+            f"{d['heldout_seconds']:.0f} s held out{took}",
+            f"verdict: {report['verdict'].replace('_', ' ')} — {report['verdict_detail']}"]
+
+
+def finding_line(i: int, finding: dict, what_tells_apart: str) -> str:
+    """``  i. effect at place: parameter = value ± error, ...`` and the families these
+    ``what_tells_apart`` ("data", "sensors") cannot separate from it."""
+    where = " ".join(f"{k} {v}" for k, v in finding["where"].items())
+    par = ", ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in finding["parameters"].items())
+    alt = (f"  (or {', '.join(finding['alternatives'])}: not separable with these {what_tells_apart})"
+           if finding["alternatives"] else "")
+    return f"  {i}. {finding['effect']} at {where}: {par}{alt}"

@@ -14,19 +14,14 @@ import numpy as np
 
 from pneumatics.io import atomic_write_json, atomic_write_text
 
-from identification.base.reporting import jsonable, pyplot, save_figure
+from identification.base.reporting import finding_line, jsonable, pyplot, save_figure, summary_head
 
 
 def summary(report: dict) -> str:
-    d = report["diagnostics"]
-    lines = [(f"pneumasim doctor — {report['model']}: {d['train_seconds']:.0f} s fitted, "
-             f"{d['heldout_seconds']:.0f} s held out"),
-             f"verdict: {report['verdict'].replace('_', ' ')} — {report['verdict_detail']}"]
+    """What a person reads in ten seconds: each finding, its held-out NRMSE, what is unexplained."""
+    lines = summary_head(report)
     for i, f in enumerate(report["findings"], 1):
-        where = " ".join(f"{k} {v}" for k, v in f["where"].items())
-        par = ", ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in f["parameters"].items())
-        alt = f"  (or {', '.join(f['alternatives'])}: not separable with these data)" if f["alternatives"] else ""
-        lines.append(f"  {i}. {f['effect']} at {where}: {par}{alt}")
+        lines.append(finding_line(i, f, "data"))
         n = f["heldout_nrmse"]
         lines.append(f"     held-out NRMSE {f['heldout_channel']}: {n['before']:.3f} → {n['after']:.3f}")
     for u in report["unexplained"]:

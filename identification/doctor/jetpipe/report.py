@@ -14,7 +14,7 @@ import numpy as np
 
 from pneumatics.io import atomic_save, atomic_write_json, atomic_write_text
 
-from identification.base.reporting import jsonable, pyplot, save_figure
+from identification.base.reporting import finding_line, jsonable, pyplot, save_figure, summary_head
 
 from .diagnose import fitted_effects
 from .hypotheses import CALIBRATION, calibrated_cfg
@@ -28,15 +28,9 @@ COLUMNS = {"p_a": "p_a.piston", "p_b": "p_b.piston", "force": "force.piston", "j
 
 def summary(report: dict) -> str:
     """What a person reads in ten seconds: where, what, how sure, how much better."""
-    d = report["diagnostics"]
-    lines = [(f"pneumasim doctor — {report['model']}: {d['train_seconds']:.0f} s fitted, "
-             f"{d['heldout_seconds']:.0f} s held out, {d['seconds']:.0f} s"),
-             f"verdict: {report['verdict'].replace('_', ' ')} — {report['verdict_detail']}"]
+    lines = summary_head(report, report["diagnostics"]["seconds"])
     for i, f in enumerate(report["findings"], 1):
-        where = " ".join(f"{k} {v}" for k, v in f["where"].items())
-        par = ", ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in f["parameters"].items())
-        alt = f"  (or {', '.join(f['alternatives'])}: not separable with these sensors)" if f["alternatives"] else ""
-        lines.append(f"  {i}. {f['effect']} at {where}: {par}{alt}")
+        lines.append(finding_line(i, f, "sensors"))
         lines.append(f"     when: {f['regime']}; bootstrap inclusion {f['inclusion_probability']:.2f}")
         n, nr = f["heldout_nrmse"], f["heldout_nrmse_in_regime"]
         lines.append(f"     held-out NRMSE {f['heldout_channel']}: {n['before']:.3f} → {n['after']:.3f}"
