@@ -62,10 +62,11 @@ class Experiment:
 
 def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None, checked: bool = False) -> Experiment:
     """Validate ``rec`` against ``robot`` and prepare it (raises RecordingError on bad data).
-    ``checked``: the whole recording ``rec`` was cut from already passed the model checks
-    (recording_checks.check_for_robot), so they are not repeated (nor their warnings)."""
-    validate(rec, robot.joint_names, robot.actuator_names, model_name=robot.name)
+    ``checked``: the whole recording ``rec`` was cut from already passed these checks
+    (``validate`` and recording_checks.check_for_robot), so they are not repeated (nor their
+    warnings, which would name the slice instead of the user's file)."""
     if not checked:
+        validate(rec, robot.joint_names, robot.actuator_names, model_name=robot.name)
         check_for_robot(rec, robot)  # gauge pressures, degrees, values the robot cannot produce
     t = rec.time
     if t.size < MIN_ROWS:
