@@ -219,14 +219,9 @@ class Simulation:
             status = command_step(u, lo, hi, COMMAND_SLIP_V, self.command, self.spool, self.spool_position,
                                   self._hysteresis, self.tables.valve, self._valve_leak, self._valve_leak_exhaust,
                                   self.effects.valve_leak_width_v, self.areas)
-            if status == OK:
-                return
             if status == CLIPPED:
-                if not self._clip_warned:
-                    self._clip_warned = True
-                    warnings.warn(f"valve commands outside {lo:g}-{hi:g} V (min {u.min():.3g}, max {u.max():.3g}) "
-                                  f"at t = {self.time:.3f} s are clipped; warned once per run",
-                                  CommandClippedWarning, stacklevel=2)
+                self._warn_clipped(u)
+            if status in (OK, CLIPPED):
                 return
             # NOT_FINITE, UNIT_SLIP: nothing was changed; the numpy path below names the fault
         if not np.all(np.isfinite(u)):
@@ -240,11 +235,8 @@ class Simulation:
             a, c = self.robot.chamber_names[i]
             raise ArgumentError(f"set_command(command_v): {u[i]:.6g} V for chamber {a}.{c} is far outside the "
                                 f"valve's {lo:g}-{hi:g} V (clipped within {COMMAND_SLIP_V:g} V of it): wrong unit?")
-        if (u.min() < lo or u.max() > hi) and not self._clip_warned:
-            self._clip_warned = True
-            warnings.warn(f"valve commands outside {lo:g}-{hi:g} V (min {u.min():.3g}, max {u.max():.3g}) "
-                          f"at t = {self.time:.3f} s are clipped; warned once per run",
-                          CommandClippedWarning, stacklevel=2)
+        if u.min() < lo or u.max() > hi:
+            self._warn_clipped(u)
         np.clip(u, lo, hi, out=self.command)
         # valve_hysteresis: the spool follows the command through a play of +-h
         self.spool[:] = play_step(self.spool, self.command, self._hysteresis)
@@ -253,6 +245,16 @@ class Simulation:
             return  # the areas follow step by step (_advance_spool)
         self.spool_position[:] = self.spool
         self._update_areas()
+
+    def _warn_clipped(self, u):
+        """CommandClippedWarning for commands ``u`` outside COMMAND_RANGE_V, once per run."""
+        if self._clip_warned:
+            return
+        self._clip_warned = True
+        lo, hi = COMMAND_RANGE_V
+        warnings.warn(f"valve commands outside {lo:g}-{hi:g} V (min {u.min():.3g}, max {u.max():.3g}) "
+                      f"at t = {self.time:.3f} s are clipped; warned once per run",
+                      CommandClippedWarning, stacklevel=3)
 
     def _advance_spool(self):
         """valve_lag and line_dynamics over the coming physics step: the spool target delayed by
