@@ -57,7 +57,7 @@ def recordings_from_args(args, progress=None):
     from pneumatics.formats.rosbag import is_ros_bag
     from pneumatics.recording_checks import add_room_pressure
 
-    room_pa = room_pressure_pa(args.model)
+    room_pa = room_pressure_pa(args.model) if args.gauge else None  # builds the model: only when needed
 
     def read(path):
         rec = read_recording(path, args.map if is_ros_bag(path) else None)

@@ -65,7 +65,9 @@ def diagnose(model: str, recordings: list, holdouts: list = (), progress: Callab
 
         from .valve_arm.diagnose import diagnose as diagnose_arm
 
-        report = diagnose_arm(load_robot(model), recordings, list(holdouts), progress=progress)
+        robot = load_robot(model)
+        report = diagnose_arm(robot, recordings, list(holdouts), progress=progress)
+        report["_robot"] = robot  # for write(): report.json leaves "_" keys out
     elif kind == "jetpipe":
         from .jetpipe.diagnose import diagnose_jetpipe
 
@@ -87,7 +89,8 @@ def write(report: dict, out: str | Path) -> Path:
 
         from .valve_arm.report import write as write_arm
 
-        return write_arm(report, out, load_robot(report["model"]))
+        robot = report.pop("_robot", None) or load_robot(report["model"])
+        return write_arm(report, out, robot)
     if kind == "jetpipe":
         from .jetpipe.report import write as write_jetpipe
 
