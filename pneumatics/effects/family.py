@@ -102,7 +102,7 @@ class Family(ABC):
 
     def add_to(self, effects, place: str, params) -> None:
         """Switch the effect on in ``effects`` (an EffectSet) at ``place``.  Dict-valued entries
-        at one place merge (a Coulomb and a viscous friction at one joint add up)."""
+        at one place merge; a family whose terms add up at one place (friction) overrides this."""
         for attr, value in self.effect_set_entry(params).items():
             if self.place_kind == "supply":
                 setattr(effects, attr, value)

@@ -74,6 +74,16 @@ class _JointFriction(Family):
         """The friction torque [N m] at joint velocities qd [rad/s] (opposes the motion)."""
         raise NotImplementedError
 
+    def add_to(self, effects, place: str, params) -> None:
+        """Friction terms at one joint add up (a Coulomb and a Stribeck friction found apart are
+        one friction curve); the Stribeck velocity is a shape, set rather than added."""
+        fr = effects.friction.setdefault(place, {})
+        for k, x in self.effect_set_entry(params)["friction"].items():
+            if k == "stribeck_rad_s":
+                fr[k] = x
+            elif x:
+                fr[k] = fr.get(k, 0.0) + x
+
     def torque_balance_term(self, exp, td, joint: int, params) -> np.ndarray:
         # tau_act + tau_friction = tau_inv, so the equation error carries -tau_friction
         qd = exp.qd[:, joint]

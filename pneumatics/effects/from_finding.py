@@ -11,7 +11,6 @@ names of its family's form).  What this module adds is what a *fitted* model nee
   at the fitted angle, its k and b are not: *approximate*.
 * ``force_sensor_offset`` (the bench doctor's load cell): no robot simulator entry: *not
   applied*.
-* friction forms at one joint add up (a Coulomb and a viscous friction found apart);
 * a pressure-sensor offset the torque balance found names its actuator: it is carried on
   chamber a, with the chamber-b equivalent as an isolability alternative.
 
@@ -113,22 +112,8 @@ def add_effect(effects: EffectSet, e, robot, where: str = "effect") -> str | Non
         return _end_stop(effects, robot, place, v)
     fam = get_family(e.family)
     values = {k: x for k, x in v.items() if k not in ALTERNATIVE_PARAMETERS.get(e.family, ())}
-    params = fam.params(values, e.form)
-    if e.family in ("coulomb_friction", "stiction", "viscous_friction"):
-        _add_friction(effects, place, fam.effect_set_entry(params)["friction"])
-    else:
-        fam.add_to(effects, place, params)
+    fam.add_to(effects, place, fam.params(values, e.form))  # friction terms at one joint add up
     return None
-
-
-def _add_friction(effects: EffectSet, joint: str, entry: dict):
-    """Friction terms add up at one joint; the Stribeck velocity is a shape, set, not added."""
-    fr = effects.friction.setdefault(joint, {})
-    for k, x in entry.items():
-        if k == "stribeck_rad_s":
-            fr[k] = x
-        elif x:
-            fr[k] = fr.get(k, 0.0) + x
 
 
 def _place(e, robot, where: str) -> str:
