@@ -58,8 +58,11 @@ def write(report: dict, out: str | Path, robot=None, rerun: bool = True) -> Path
         from .fitted_model import write_fitted_files
         write_fitted_files(report["_fitted"], out, robot)
     pngs = []
+    if robot is not None:  # where on the robot: the kinematic tree with the findings marked
+        from .body_map import body_map_png
+        pngs.append(body_map_png(robot, report, out))
     if replays:
-        pngs = _plots(report, replays, out)
+        pngs += _plots(report, replays, out)
         if rerun and robot is not None:
             _rrd(report, replays, out, robot)
     atomic_write_text(out / "report.md", _markdown(report, pngs, fitted))
@@ -152,12 +155,18 @@ def _plots(report, replays, out: Path):
 def _rrd(report, replays, out: Path, robot):
     from workflow.rerun_log import RerunLogger
 
+    from .body_map import log_body_map
+
     def save(tmp):  # atomic: a stopped run leaves the previous doctor.rrd whole
         logger = RerunLogger(robot, path=tmp, recording_name=f"doctor {report['model']}")
         for prefix, key, attr in (("measured", "baseline", "measured"), ("nominal", "nominal", "predicted"),
                                   ("calibrated", "baseline", "predicted"), ("corrected", "final", "predicted")):
             r = replays[key]
-            logger.log_recording(Recording(r.times, getattr(r, attr), {}), prefix=prefix)
+            table = Recording(r.times, getattr(r, attr), {})
+            # the robot moves as measured, its faulty joints marked (body_map)
+            whole = prefix == "measured" and all(f"q.{j}" in r.measured for j in robot.joint_names)
+            logger.log_recording(table, prefix=prefix, bodies=whole)
+        log_body_map(logger, robot, report)
         logger.close()
 
     atomic_save(out / "doctor.rrd", save)
