@@ -33,8 +33,10 @@ SUBATMOSPHERIC_SHARE = 0.8
 #: the highest pressure a chamber can reach is the supply; this factor leaves room for sensor
 #: noise, supply ripple and a regulator set a little above the model's nominal supply
 SUPPLY_MARGIN = 1.5
-#: share of a joint's span a recording may stray outside its range (encoder offset, noise)
-RANGE_MARGIN = 0.1
+#: share of a joint's span a recording may stray outside its range: encoder offsets, noise, and a
+#: joint driven into MuJoCo's soft limit (humanoid38's PIDF pushes head_pitch 0.09 rad, 10 % of
+#: its span, past the limit); a wrong joint, unit or zero strays much further
+RANGE_MARGIN = 0.25
 GAUGE_FIX = ("add the room pressure: `pneumasim doctor --gauge ...` does it, or give the import map's "
              "column a gauge unit (Pa_gauge, kPa_gauge, bar_gauge, psi_gauge)")
 
@@ -90,7 +92,7 @@ def check_joint_positions(rec: Recording, joint_names, joint_range, slide=None):
         big = v.max() if abs(v.max()) >= abs(v.min()) else v.min()
         # the other unit: the values fit the range once converted, and they are too large or
         # move too far to be the right unit shifted by an offset
-        too_big = np.max(np.abs(v)) > (1.0 if slide[j] else 2 * math.pi) or np.ptp(v) > (hi - lo) + 2 * margin
+        too_big = np.max(np.abs(v)) > (1.0 if slide[j] else 2 * math.pi) or np.ptp(v) > 2 * ((hi - lo) + 2 * margin)
         if too_big and v.min() * factor >= lo - margin and v.max() * factor <= hi + margin:
             other = "mm" if slide[j] else "degrees"
             raise RecordingError(f"{rec.source}: column {col} looks like {other} ({'max' if big == v.max() else 'min'} "
