@@ -31,7 +31,6 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-from scipy.interpolate import make_smoothing_spline
 
 from pneumatics.chamber import chamber_geometry
 from pneumatics.errors import PneumasimError
@@ -41,7 +40,7 @@ from pneumatics.sim import Simulation
 from pneumatics.valve import valve_areas
 
 from identification.base.lsq import linear
-from identification.base.smoothing import discrepancy_lambda
+from identification.base.smoothing import discrepancy_lambda, smoothing_spline
 
 #: default command grid [V]: coarse where the valve is open, 0.1 V steps around the null
 #: (null offsets of +-0.15 V and dead bands of 0.1-0.25 V must be resolved)
@@ -205,7 +204,7 @@ def smoothing_lambdas(transients) -> list[float]:
 
 def smoothed_rate(tr: Transient, lam: float):
     """(p_smooth, dp/dt), each (T, n_ch), from one smoothing spline over all chambers."""
-    s = make_smoothing_spline(tr.time, tr.pressure, lam=lam)
+    s = smoothing_spline(tr.time, tr.pressure, lam=lam)
     return s(tr.time), s.derivative(1)(tr.time)
 
 

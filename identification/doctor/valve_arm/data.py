@@ -113,10 +113,8 @@ def _light_spline(t, y, fraction: float = 0.5):
     """A smoothing spline leaving residuals at ``fraction`` of the noise level: it removes
     most of the noise but, unlike a spline at the full noise level, hardly attenuates fast
     motions (which would bias the chamber stiffness and so the fitted dead volumes)."""
-    from scipy.interpolate import make_smoothing_spline
-
-    from identification.base.smoothing import noise_sd
-    return make_smoothing_spline(t, y, lam=discrepancy_lambda(t, y, fraction * noise_sd(y)))
+    from identification.base.smoothing import noise_sd, smoothing_spline
+    return smoothing_spline(t, y, lam=discrepancy_lambda(t, y, fraction * noise_sd(y)))
 
 
 def _fine_geometry(exp: Experiment):
