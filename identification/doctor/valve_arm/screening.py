@@ -57,27 +57,65 @@ class Scored:
         return h.chambers if h.kind == "pneumatic" else [h.joint]
 
 
-def score_pneumatic(exp, win, mods, hyps, sigma):
+def score_pneumatic(exp, win, mods, hyps, sigma, grouped: bool = True):
+    """Score every pneumatic hypothesis of ``hyps``; returns ([Scored], total squared residual).
+
+    A chamber's pressure replay is driven by the measured motion and its own commands, so a
+    hypothesis changes only the replays of its own chambers (``hyp.chambers``).  With
+    ``grouped``, the hypotheses of one family and form at disjoint chambers share their probe
+    replays (:func:`probe_groups`): the cost is a few replays per family, not per place, which
+    is what lets a 76-chamber robot be screened (``grouped=False``: one hypothesis at a time,
+    the obviously-correct reference the tests compare with)."""
     pred, meas = replay(exp, win, mods)
-    r0 = ((pred - meas) / sigma)
+    r0 = (pred - meas) / sigma                           # (W, H, C)
     total = float(np.sum(r0 ** 2))
+    n_ch = r0.shape[2]
+    scored = {}
+    for group in (probe_groups(hyps, n_ch) if grouped else [[h] for h in hyps]):
+        h0 = group[0]
+        x0 = np.array([p[1] for p in h0.params])
+        probe = np.array([p[4] for p in h0.params])
+        deltas = []
+        for i in range(len(x0)):  # one probe replay per parameter, every hypothesis of the group at once
+            m = mods
+            for h in group:
+                m = h.apply(m, x0 + probe * np.eye(len(x0))[i])
+            deltas.append((replay(exp, win, m)[0] - pred) / sigma / probe[i])
+        for h in group:
+            cs = h.chambers if grouped else slice(None)
+            G = np.stack([d[:, :, cs].ravel() for d in deltas], axis=1)
+            scored[id(h)] = Scored(h, _score_gain(h, G, r0[:, :, cs].ravel(), x0, total))
+    return [scored[id(h)] for h in hyps], total
+
+
+def _score_gain(h, G: np.ndarray, r0: np.ndarray, x0: np.ndarray, total: float) -> float:
+    """The share of the total squared residual the best bounded step along G (n, k) removes
+    from r0 (n,) (linear least squares of -r0 on G within the parameters' bounds)."""
+    if not np.any(G):
+        return 0.0
+    lo = np.array([p[2] for p in h.params]) - x0
+    hi = np.array([p[3] for p in h.params]) - x0
+    step = lsq_linear(G, -r0, bounds=(lo, hi)).x
+    return max((float(r0 @ r0) - float(np.sum((r0 + G @ step) ** 2))) / total, 0.0)
+
+
+def probe_groups(hyps, n_chambers: int) -> list[list]:
+    """Hypotheses that can share probe replays: the same family with the same parameters (start
+    and probe step) at disjoint chambers; one touching every chamber (the supply) stays alone."""
+    groups: dict[tuple, list[list]] = {}
     out = []
     for h in hyps:
-        x0 = np.array([p[1] for p in h.params])
-        probe = np.array([p[4] for p in h.params])
-        # one probe replay per parameter: the residual's change per unit of each, G (n, k)
-        G = np.stack([((replay(exp, win, h.apply(mods, x0 + probe * np.eye(len(x0))[i]))[0] - pred) / sigma
-                       / probe[i]).ravel() for i in range(len(x0))], axis=1)
-        if not np.any(G):
-            out.append(Scored(h, 0.0))
+        if len(set(h.chambers)) >= n_chambers:
+            out.append([h])
             continue
-        # the best bounded step along them: linear least squares of -r0 on G
-        lo = np.array([p[2] for p in h.params]) - x0
-        hi = np.array([p[3] for p in h.params]) - x0
-        step = lsq_linear(G, -r0.ravel(), bounds=(lo, hi)).x
-        gain = (total - float(np.sum((r0.ravel() + G @ step) ** 2))) / total
-        out.append(Scored(h, max(gain, 0.0)))
-    return out, total
+        key = (h.family, tuple((p[0], p[1], p[4]) for p in h.params))
+        for g in groups.setdefault(key, []):
+            if not any(set(h.chambers) & set(o.chambers) for o in g):
+                g.append(h)
+                break
+        else:
+            groups[key].append([h])
+    return out + [g for gs in groups.values() for g in gs]
 
 
 def fit_pneumatic(s: Scored, exp, win, mods, sigma):

@@ -1,0 +1,41 @@
+"""The doctor's work grows linearly with the places: hypotheses at disjoint chambers share their
+probe replays, with the same scores as one at a time."""
+from pathlib import Path
+
+import numpy as np
+
+from identification.doctor.valve_arm.calibrate import pressure_sigma
+from identification.doctor.valve_arm.data import prepare
+from identification.doctor.valve_arm.hypotheses import pneumatic_hypotheses
+from identification.doctor.valve_arm.pneumatic import PneumaticMods, Windows
+from identification.doctor.valve_arm.screening import probe_groups, score_pneumatic
+from pneumatics.recording import read_csv
+from pneumatics.robot import load_robot
+
+SAMPLE = Path(__file__).resolve().parents[2] / "shared" / "samples" / "arm2-blind" / "case_2e0854bc.csv"
+
+
+def test_grouped_scores_equal_one_at_a_time():
+    robot = load_robot("arm2")
+    exp = prepare(robot, read_csv(SAMPLE).slice(0, 20))
+    win = Windows.tile(len(exp.t), 30)
+    hyps = pneumatic_hypotheses(robot)
+    args = (exp, win, PneumaticMods.nominal(4), hyps, pressure_sigma(exp))
+    grouped, total_g = score_pneumatic(*args)
+    alone, total_a = score_pneumatic(*args, grouped=False)
+    assert total_g == total_a
+    assert max(s.predicted_gain for s in alone) > 0.5  # the sample's hysteresis shows
+    assert np.allclose([s.predicted_gain for s in grouped], [s.predicted_gain for s in alone], rtol=0, atol=1e-12)
+
+
+def test_groups_are_disjoint_and_few_on_the_humanoid():
+    robot = load_robot("humanoid38")
+    hyps = pneumatic_hypotheses(robot)
+    groups = probe_groups(hyps, robot.tables.n_chambers)
+    assert sorted(id(h) for g in groups for h in g) == sorted(id(h) for h in hyps)
+    for g in groups:
+        chambers = [c for h in g for c in h.chambers]
+        assert len(chambers) == len(set(chambers)) or len(g) == 1
+        assert len({(h.family, tuple(p[0] for p in h.params)) for h in g}) == 1
+    # about one group per family and form, against ~700 hypotheses
+    assert len(hyps) > 600 and len(groups) < 20
