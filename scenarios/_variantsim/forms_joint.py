@@ -165,17 +165,32 @@ BACKLASH = [
 DEFAULT_REACH = (-0.66, 0.66)   #: +-38 deg: the reference's held extremes when ctx gives none
 
 
+#: how far beyond the reference's extreme a fully concealed stop (k -> 0) sits [rad]: the
+#: reference dwells at its clipped extremes and the arm tracks within ~2 deg RMS
+STOP_MARGIN_RAD = 0.05
+
+
 def _stop_place(r, ctx):
-    """Bumper angles inside the reference's reach at the place's joint (0.6-0.9 of its
-    extreme on that side), one- or two-sided; a one-sided stop parks the other at +-10 rad."""
+    """Bumper angles inside the reference's reach at the place's joint, one- or two-sided:
+    a side's stop sits at extreme + margin - intrusion, the intrusion drawn as margin +
+    0.1-0.4 of that side's extreme.  The concealment scale shrinks the intrusion: the stop
+    moves out past the extreme, touched only by overshoots (a softer stop that the arm still
+    leans on stays visible in the pressures)."""
     ctx = ctx or {}
     lo, hi = ctx.get("reach_rad", {}).get(ctx.get("place"), DEFAULT_REACH)
     sides = str(r.choice(["upper", "lower", "both"]))
     if hi < 0.1 or lo > -0.1:          # the reference stays on one side: the stop goes there
         sides = "lower" if hi < 0.1 else "upper"
-    up = hi * _u(r, 0.6, 0.9) if sides in ("upper", "both") else 10.0
-    dn = lo * _u(r, 0.6, 0.9) if sides in ("lower", "both") else -10.0
-    return {"sides": sides, "upper_rad": up, "lower_rad": dn}
+    return {"sides": sides, "reach_upper_rad": hi, "reach_lower_rad": lo,
+            "upper_intrusion_rad": STOP_MARGIN_RAD + hi * _u(r, 0.1, 0.4) if sides in ("upper", "both") else 0.0,
+            "lower_intrusion_rad": STOP_MARGIN_RAD - lo * _u(r, 0.1, 0.4) if sides in ("lower", "both") else 0.0}
+
+
+def _stop_angles(e) -> tuple[float, float]:
+    """(upper, lower) stop angles [rad]; a side without a stop parks at +-10 rad."""
+    up = e["reach_upper_rad"] + STOP_MARGIN_RAD - e["upper_intrusion_rad"] if e["sides"] in ("upper", "both") else 10.0
+    dn = e["reach_lower_rad"] - STOP_MARGIN_RAD + e["lower_intrusion_rad"] if e["sides"] in ("lower", "both") else -10.0
+    return up, dn
 
 
 def _bumper(mode):
@@ -201,16 +216,18 @@ def _end_stop_form(name, mode, source, summary):
         return {**_stop_place(r, ctx), **bump(r)}
 
     def apply(col, e, h):
-        _set(h, col, [(R.ES_MODE, float(e["mode"])), (R.ES_HI, e["upper_rad"]), (R.ES_LO, e["lower_rad"]),
+        up, dn = _stop_angles(e)
+        _set(h, col, [(R.ES_MODE, float(e["mode"])), (R.ES_HI, up), (R.ES_LO, dn),
                       (R.ES_K, e["stiffness_nm_rad"]), (R.ES_C, e["damping_nms_rad"]), (R.ES_N, e["exponent"]),
                       (R.ES_K3, e["cubic_nm_rad3"])])
     return Form("end_stop", name, "joint", source, summary, draw, apply,
-                scaled=("stiffness_nm_rad", "damping_nms_rad", "cubic_nm_rad3"), slots=("end_stop",))
+                scaled=("upper_intrusion_rad", "lower_intrusion_rad"), slots=("end_stop",))
 
 
 END_STOP = [
     _end_stop_form("linear_bumper", 1, "Kelvin–Voigt contact (spring–damper)",
-                   "k δ + c δ̇ past the stop angle, k 100–300 N m/rad, ζ 0.2–0.5; one- or two-sided"),
+                   "k δ + c δ̇ past the stop angle, k 100–300 N m/rad, ζ 0.2–0.5; one- or two-sided, "
+                   "intruding 0.1–0.4 of the reference's extreme (k moves it out to 0.05 rad past it)"),
     _end_stop_form("hunt_crossley_bumper", 2, "Hunt & Crossley 1975; Marhefka & Orin 1999, IEEE SMC-A 29:566",
                    "(k + c δ̇) δ^1.5, c = 1.5 α k, α 0.2–0.5 s/rad"),
     _end_stop_form("progressive_bumper", 3, "elastomer bump stop, Gillespie 1992, Fundamentals of Vehicle Dynamics (SAE)",

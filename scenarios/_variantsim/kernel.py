@@ -61,6 +61,9 @@ def spool(u, P, S, c, h):
     [V/s] (the solenoid's force bounds the spool speed), or the command itself."""
     if P[SP_W, c] > 0.0:
         w = P[SP_W, c]
+        if w * h > 0.3:      # a spool this fast (a concealed one) settles within the sub-step
+            S[SY, c], S[SYD, c] = u, 0.0
+            return u
         S[SYD, c] += h * (w * w * (u - S[SY, c]) - 2.0 * P[SP_Z, c] * w * S[SYD, c])
         S[SY, c] += h * S[SYD, c]
     elif P[SP_TAU, c] > 0.0:
@@ -88,12 +91,7 @@ def chamber_volume(P, c, th):
 @njit(cache=True)
 def valve_node_pressure(P, S, c):
     """The pressure the valve's chamber port sees: the tube's valve end or the chamber."""
-    mode = P[LN_MODE, c]
-    if mode == LN_TWO_VOLUME:
-        return S[SPT, c]
-    if mode == LN_RLC:
-        return S[SN0, c]
-    return S[SP, c]
+    return S[SPT, c] if P[LN_MODE, c] == LN_TWO_VOLUME else S[SP, c]
 
 
 @njit(cache=True)
@@ -119,9 +117,7 @@ def line(m_v, pn, P, S, c, vol, h):
     LN_TWO_VOLUME a tube volume and a laminar resistance (one lumped R and C; exchange exact
     for a frozen conductance); LN_DELAYED the valve's flow delayed by LN_DELAY and attenuated
     by LN_ATT (pure delay + volume; or Richer & Hurmuzlu 2000, ASME JDSMC 122:405, eq. 19's
-    delayed, attenuated flow); LN_RLC three lumped segments with volume, inertance and
-    laminar friction (a lumped transmission line, as in Krichel & Sawodny's pneumatic line
-    models)."""
+    delayed, attenuated flow).  LN_RLC is :func:`rlc_line`."""
     mode = P[LN_MODE, c]
     if mode == LN_TWO_VOLUME:
         p, vt = S[SP, c], P[LN_V, c]
@@ -138,20 +134,43 @@ def line(m_v, pn, P, S, c, vol, h):
         out = S[SB0 + (i - d) % NBUF, c]
         S[SBI, c] = (i + 1) % NBUF
         return P[LN_ATT, c] * out
-    if mode == LN_RLC:
-        seg_v, seg_l = P[LN_V, c] / 3.0, P[LN_LEN, c] / 3.0
-        area = P[LN_V, c] / P[LN_LEN, c]
-        d = math.sqrt(4.0 * area / math.pi)
+    return m_v
+
+
+@njit(cache=True)
+def rlc_line(y, ps, P, S, c, vol, h):
+    """LN_RLC: three lumped segments of volume V/3, inertance (L/3)/A and laminar friction
+    32 mu/(rho d^2) between the valve and the chamber (a lumped transmission line, as in
+    Krichel & Sawodny's pneumatic line models).  Short segments are stiff (wave frequency
+    ~ c / (L/3), a small first volume against the valve's laminar conductance), so the line
+    and the valve's flow into it take their own sub-steps; the chamber pressure evolves
+    locally with the line's flow only.  Returns the mean (supply -> valve, line -> chamber)
+    mass flows [kg/s] over h."""
+    seg_v, seg_l = P[LN_V, c] / 3.0, P[LN_LEN, c] / 3.0
+    area = P[LN_V, c] / P[LN_LEN, c]
+    d = math.sqrt(4.0 * area / math.pi)
+    krt = KAPPA * R_GAS * T0
+    # arm2's valve relaxes a 3 cm^3 volume at ~1600 1/s (arm.py NSUB); leak forms add less
+    valve_rate = 1600.0 * 3e-6 / seg_v * (P[AS, c] + P[AE, c]) / 1.7e-6 * 2.0
+    wave = max(2.0 * SOUND_M_S / seg_l, math.sqrt(krt * area / (seg_l * vol)))
+    m = max(1, int(math.ceil(h * max(valve_rate / 0.5, wave / 0.3))))
+    hs = h / m
+    p_ch = S[SP, c]
+    sum_s, sum_out = 0.0, 0.0
+    for _ in range(m):
+        m_s, m_v = valve_flows(y, ps, S[SN0, c], P, c)
         for i in range(3):   # inertance first (symplectic Euler), then the node pressures
             p_up = S[SN0 + i, c]
-            p_dn = S[SN0 + i + 1, c] if i < 2 else S[SP, c]
+            p_dn = S[SN0 + i + 1, c] if i < 2 else p_ch
             rate = line_friction_rate(0.5 * (p_up + p_dn), d)
-            S[SM0 + i, c] += h * (area / seg_l * (p_up - p_dn) - rate * S[SM0 + i, c])
-        S[SN0, c] += h * KAPPA * R_GAS * T0 / seg_v * (m_v - S[SM0, c])
+            S[SM0 + i, c] += hs * (area / seg_l * (p_up - p_dn) - rate * S[SM0 + i, c])
+        S[SN0, c] += hs * krt / seg_v * (m_v - S[SM0, c])
         for i in range(1, 3):
-            S[SN0 + i, c] += h * KAPPA * R_GAS * T0 / seg_v * (S[SM0 + i - 1, c] - S[SM0 + i, c])
-        return S[SM0 + 2, c]
-    return m_v
+            S[SN0 + i, c] += hs * krt / seg_v * (S[SM0 + i - 1, c] - S[SM0 + i, c])
+        p_ch += hs * krt / vol * S[SM0 + 2, c]
+        sum_s += m_s
+        sum_out += S[SM0 + 2, c]
+    return sum_s / m, sum_out / m
 
 
 @njit(cache=True)
@@ -281,10 +300,14 @@ def step_ms(u, q, qd, bias, P, S, dt, nsub, tau):
         m_supply = 0.0
         for c in range(4):
             y = spool(u[c], P, S, c, h)
-            pn = valve_node_pressure(P, S, c)
-            m_s, m_v = valve_flows(y, ps, pn, P, c)
+            vol = chamber_volume(P, c, th[c // 2])
+            if P[LN_MODE, c] == LN_RLC:
+                m_s, m_in[c] = rlc_line(y, ps, P, S, c, vol, h)
+            else:
+                pn = valve_node_pressure(P, S, c)
+                m_s, m_v = valve_flows(y, ps, pn, P, c)
+                m_in[c] = line(m_v, pn, P, S, c, vol, h)
             m_supply += m_s
-            m_in[c] = line(m_v, pn, P, S, c, chamber_volume(P, c, th[c // 2]), h)
             if P[EX_MODE, c] > 0.0:
                 m_in[c] -= leak_flow(int(P[EX_MODE, c]), P[EX_A, c], P[EX_B, c], S[SP, c], P_ATM)
         for j in range(2):
