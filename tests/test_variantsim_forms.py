@@ -15,6 +15,7 @@ from scenarios._variantsim import kernel as K
 from scenarios._variantsim.arm import ANGLE_NOISE_RAD, COLUMNS, PRESSURE_NOISE_PA, Arm2Config
 from scenarios._variantsim.cases import make_case
 from scenarios._variantsim.forms import FAMILIES, FORMS, OUTSIDE, forms_table
+from scenarios._variantsim.hysteresis import BoucWen, JilesAtherton, Play, Preisach
 
 ROOT = Path(__file__).resolve().parents[1]
 SEED = 21
@@ -144,3 +145,31 @@ def test_the_variant_simulator_imports_nothing_of_pneumasim():
 def test_the_docs_table_is_the_registrys():
     text = (ROOT / "docs" / "effects_variants.md").read_text()
     assert forms_table() in text
+
+
+@pytest.mark.parametrize("op", [Play(0.3), BoucWen(0.3), Preisach(0.3, 0.5, 1), JilesAtherton(0.3, 0.2, 15.0, 0.01)],
+                         ids=["play", "bouc_wen", "preisach", "jiles_atherton"])
+def test_valve_hysteresis_operators_trail_the_command_both_ways(op):
+    op.reset(3.0)
+    up = np.linspace(3.0, 7.0, 81)
+    spool_up = np.array([op(u) for u in up])
+    spool_dn = np.array([op(u) for u in up[::-1]])[::-1]
+    mid = 40                                           # u = 5 V on both branches
+    assert spool_up[mid] < 5.0 - 0.15 and spool_dn[mid] > 5.0 + 0.15      # a loop around the command
+    assert np.abs(spool_up - up).max() < 0.3 * 1.5 + 0.05                 # bounded by its width (+ spread)
+
+
+def test_compressor_cycles_between_its_switch_pressures():
+    P = Arm2Config().param_matrix()
+    P[K.AS] = P[K.AE] = 0.0                            # no valve demand: the system leak drains it
+    P[K.SU_MODE, 0], P[K.SU_V, 0], P[K.SU_QC, 0], P[K.SU_BAND, 0], P[K.SU_LK, 0] = K.SU_COMPRESSOR, 5e-4, 3e-4, 3e4, 5e-11
+    S = np.zeros((K.NS, 4))
+    S[K.SP], S[K.ST], S[K.SY], S[K.SPS, 0] = 4e5, K.T0, 5.0, K.P_SUPPLY
+    trace, tau = [], np.zeros(2)
+    for _ in range(15000):
+        K.step_ms(np.full(4, 5.0), np.zeros(2), np.zeros(2), np.zeros(2), P, S, 1e-3, 4, tau)
+        trace.append(S[K.SPS, 0])
+    trace = np.array(trace)
+    assert trace.min() == pytest.approx(K.P_SUPPLY - 3e4, abs=200) and trace.max() == pytest.approx(K.P_SUPPLY, abs=200)
+    filling = np.diff(trace) > 0
+    assert np.sum(filling[1:] & ~filling[:-1]) >= 2       # the compressor started at least twice in 15 s
