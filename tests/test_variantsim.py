@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 from scenarios._variantsim import kernel as K
-from scenarios._variantsim.arm import COLUMNS, Arm2Config, Hidden, VariantArm
+from scenarios._variantsim.arm import COLUMNS, Arm2Config
 from scenarios._variantsim.control import record
-from scenarios._variantsim.effects import FAMILIES, effective, hidden_for
+from scenarios._variantsim.effects import FORMS, hidden_for
+from scenarios._variantsim.hysteresis import BoucWen
 
 ZERO2 = np.zeros(2)
 
@@ -67,7 +68,7 @@ def test_pidf_tracks_a_varied_reference_at_a_few_degrees():
 
 def test_laminar_external_leak_is_linear_in_p_squared_and_stops_at_room():
     P = closed(Arm2Config().param_matrix())
-    P[K.EX_G, 0] = 1e-16
+    P[K.EX_MODE, 0], P[K.EX_A, 0] = 1, 1e-16
     rates = []
     for p0 in (3e5, 6e5, 1e5):
         _, tr = chamber_run(5.0, 0.002, P, p0=p0)
@@ -78,7 +79,7 @@ def test_laminar_external_leak_is_linear_in_p_squared_and_stops_at_room():
 
 def test_laminar_piston_leak_conserves_the_cylinders_air_and_equalises():
     P = closed(Arm2Config().param_matrix())
-    P[K.PL_G, 0] = 1e-16
+    P[K.PL_MODE, 0], P[K.PL_A, 0] = 1, 1e-16
     S = np.zeros((K.NS, 4))
     S[K.SP] = [6e5, 2e5, 4e5, 4e5]
     S[K.ST], S[K.SY], S[K.SPS, 0] = K.T0, 5.0, K.P_SUPPLY
@@ -91,7 +92,7 @@ def test_laminar_piston_leak_conserves_the_cylinders_air_and_equalises():
 
 def test_underlap_leak_only_inside_its_band_and_balances_midway():
     P = closed(Arm2Config().param_matrix())
-    P[K.UL_G, 0], P[K.UL_B, 0] = 2e-10, 0.15
+    P[K.VL_MODE, 0], P[K.VL_A, 0], P[K.VL_W, 0] = 1, 2e-10, 0.15
     _, tr = chamber_run(5.0, 3.0, P, p0=1e5)
     assert tr[-1, 0] == pytest.approx((K.P_SUPPLY + K.P_ATM) / 2, rel=1e-3)   # equal conductances both ways
     _, tr = chamber_run(5.0 + 5 * 0.16, 0.5, P, p0=1e5)                      # outside the band
@@ -99,11 +100,11 @@ def test_underlap_leak_only_inside_its_band_and_balances_midway():
 
 
 def test_bouc_wen_hysteresis_is_bounded_and_lags_the_command():
-    arm = VariantArm(Arm2Config(), Hidden(bw_half_width_v=np.array([0.3, 0, 0, 0])))
-    arm.reset(np.zeros(2))
-    spool_up = [arm._bouc_wen(np.array([u, 5, 5, 5]))[0] for u in np.linspace(5, 8, 61)]
-    assert abs(arm.bw_z[0]) <= 0.3 + 1e-12 and 8 - spool_up[-1] == pytest.approx(0.3, abs=0.01)
-    spool_dn = [arm._bouc_wen(np.array([u, 5, 5, 5]))[0] for u in np.linspace(8, 7.8, 5)]
+    op = BoucWen(0.3)
+    op.reset(5.0)
+    spool_up = [op(u) for u in np.linspace(5, 8, 61)]
+    assert abs(op.z) <= 0.3 + 1e-12 and 8 - spool_up[-1] == pytest.approx(0.3, abs=0.01)
+    spool_dn = [op(u) for u in np.linspace(8, 7.8, 5)]
     assert np.ptp(spool_dn) < 1e-9          # on reversal the spool waits: z shrinks with the command
 
 
@@ -185,7 +186,7 @@ def test_compliant_backlash_transmits_nothing_inside_the_gap_and_settles_on_cont
 
 def test_regulator_reservoir_holds_supply_at_no_demand_and_droops_under_flow():
     P = Arm2Config().param_matrix()
-    P[K.SU_A, 0], P[K.SU_V, 0] = 0.6e-6, 3e-5
+    P[K.SU_MODE, 0], P[K.SU_A, 0], P[K.SU_V, 0] = K.SU_RESERVOIR, 0.6e-6, 3e-5
     S, _ = chamber_run(5.0, 0.5, closed(P.copy()), p0=5.3e5)
     idle = S[K.SPS, 0]
     S, _ = chamber_run(10.0, 0.02, P, p0=1e5)
@@ -202,7 +203,7 @@ def test_strong_heat_transfer_makes_compression_isothermal():
 
 def test_line_dynamics_chamber_lags_its_tube():
     P = Arm2Config().param_matrix()
-    P[K.LN_V, 0], P[K.LN_TAU, 0] = 2e-6, 0.02
+    P[K.LN_MODE, 0], P[K.LN_V, 0], P[K.LN_TAU, 0] = K.LN_TWO_VOLUME, 2e-6, 0.02
     S, tr = chamber_run(8.0, 0.01, P, p0=2e5)
     assert S[K.SPT, 0] > tr[-1, 0] > 2e5
     pv = S[K.SP, 0] * volumes(P, 0.0)[0] + S[K.SPT, 0] * 2e-6
@@ -211,16 +212,18 @@ def test_line_dynamics_chamber_lags_its_tube():
     assert S[K.SP, 0] * volumes(P, 0.0)[0] + S[K.SPT, 0] * 2e-6 == pytest.approx(pv, rel=1e-9)   # air kept
 
 
-def test_every_family_applies_and_scale_shrinks_magnitudes():
+def test_every_form_applies_and_scale_shrinks_magnitudes():
     rng = np.random.default_rng(0)
-    for fam, (kind, form, draw) in FAMILIES.items():
-        params = draw(rng)
-        place = {"joint": "elbow", "chamber": "elbow.b", "actuator": "elbow", "supply": "all"}[kind]
-        half = effective(fam, params, 0.5)
-        h = hidden_for([{"family": fam, "place": place, "parameters": params}], 0.5)
-        changed = any(h.P_rows.values()) or h.bw_half_width_v.any() or h.pressure_offset_pa.any() or h.angle_offset_rad.any()
-        assert changed, fam
-        assert half != params, fam
+    for fam, forms in FORMS.items():
+        for form in forms:
+            place = {"joint": "elbow", "chamber": "elbow.b", "actuator": "elbow", "supply": "all"}[form.kind]
+            params = form.draw(rng, {"place": place})
+            half = form.effective(params, 0.5)
+            h = hidden_for([{"family": fam, "form": form.name, "place": place, "parameters": params}], 0.5)
+            changed = (any(h.P_rows.values()) or h.hysteresis or h.dead_time_s.any() or h.pressure_offset_pa.any()
+                       or h.angle_offset_rad.any())
+            assert changed, (fam, form.name)
+            assert half != params, (fam, form.name)
 
 
 def test_make_case_writes_readable_recordings_and_truth(tmp_path):

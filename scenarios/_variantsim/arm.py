@@ -7,6 +7,7 @@ Nothing here imports pneumasim (``pneumatics``, ``identification``, ``controller
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import os
@@ -16,6 +17,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from . import hysteresis as H
 from . import kernel as K
 
 JOINTS = ("shoulder", "elbow")
@@ -113,13 +115,25 @@ class Arm2Config:
 @dataclass
 class Hidden:
     """The variant effects switched on in one simulator: kernel parameter rows plus what acts
-    outside the kernel (Bouc-Wen valve hysteresis, sensor offsets and gain errors)."""
+    outside the kernel (valve hysteresis operators and dead times on the command, sensor
+    models, the supply step's time as a fraction of the recording)."""
 
     P_rows: dict = field(default_factory=dict)      #: (row, col) -> value
-    bw_half_width_v: np.ndarray = field(default_factory=lambda: np.zeros(4))
+    hysteresis: dict = field(default_factory=dict)  #: chamber column -> (form name, parameters)
+    dead_time_s: np.ndarray = field(default_factory=lambda: np.zeros(4))
     pressure_offset_pa: np.ndarray = field(default_factory=lambda: np.zeros(4))
     pressure_gain_error: np.ndarray = field(default_factory=lambda: np.zeros(4))
+    pressure_drift_pa: np.ndarray = field(default_factory=lambda: np.zeros(4))
+    pressure_drift_tau_s: np.ndarray = field(default_factory=lambda: np.ones(4))
     angle_offset_rad: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    angle_gain_error: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    angle_wobble_rad: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    angle_wobble_phase: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    supply_step_fraction: float | None = None       #: the supply step's time / recording length
+
+
+#: rows of command history kept for the valve dead time (dead times up to 50 ms)
+HISTORY_ROWS = 7
 
 
 class VariantArm:
@@ -133,8 +147,12 @@ class VariantArm:
         self.model = mujoco.MjModel.from_xml_string(cfg.mjcf(tuple(self.P[K.BL_GAP, :2] > 0)))
         self.data = mujoco.MjData(self.model)
         self.S = np.zeros((K.NS, 4))
-        self.bw_z = np.zeros(4)
-        self.u_prev = np.full(4, 5.0)
+        self.hyst = {c: H.make(form, params) for c, (form, params) in self.hidden.hysteresis.items()}
+        self.dead_ms = np.round(np.asarray(self.hidden.dead_time_s) * 1000).astype(int)
+        if self.dead_ms.max() > 10 * (HISTORY_ROWS - 2):
+            raise ValueError(f"variant simulator: valve dead time {self.dead_ms.max()} ms above the "
+                             f"{10 * (HISTORY_ROWS - 2)} ms the command history holds")
+        self.u_hist = [np.full(4, 5.0)] * HISTORY_ROWS
         self._tau = np.zeros(2)
 
     def reset(self, q, pressure_pa=4.5e5):
@@ -143,16 +161,25 @@ class VariantArm:
         mujoco.mj_forward(self.model, self.data)
         self.S[:] = 0.0
         self.S[K.SP] = self.S[K.SPT] = pressure_pa
-        self.S[K.ST] = K.T0
+        self.S[K.SN0:K.SN0 + 3] = pressure_pa
+        self.S[K.ST] = self.S[K.STW] = K.T0
         self.S[K.SY] = 5.0
         self.S[K.STH, :2] = q
         self.S[K.SPS, 0] = K.P_SUPPLY
-        self.bw_z[:] = 0.0
-        self.u_prev[:] = 5.0
+        for op in self.hyst.values():
+            op.reset(5.0)
+        self.u_hist = [np.full(4, 5.0)] * HISTORY_ROWS
+
+    def start_clock(self, seconds: float, preroll_s: float):
+        """Set the clock to -preroll_s (t = 0 at the recording's first row) and place the
+        supply step (if any) at its fraction of the recording's ``seconds``."""
+        self.S[K.SCLK, 0] = -preroll_s
+        if self.hidden.supply_step_fraction is not None:
+            self.P[K.OS_T, 0] = self.hidden.supply_step_fraction * seconds
 
     def snapshot(self) -> dict:
         return {"qpos": self.data.qpos.copy(), "qvel": self.data.qvel.copy(), "S": self.S.copy(),
-                "bw_z": self.bw_z.copy(), "u_prev": self.u_prev.copy()}
+                "hyst": copy.deepcopy(self.hyst), "u_hist": list(self.u_hist)}
 
     def restore(self, snap: dict, physics_only: bool = False):
         """Set the state from a snapshot; ``physics_only`` keeps only what a simulator without
@@ -164,40 +191,39 @@ class VariantArm:
             self.reset(snap["qpos"])
             self.data.qvel[:] = snap["qvel"]
             mujoco.mj_forward(self.model, self.data)
-            self.S[K.SP] = snap["S"][K.SP]
-            self.S[K.SY] = self.u_prev[:] = snap["u_prev"]
+            p = snap["S"][K.SP]
+            self.S[K.SP] = self.S[K.SPT] = p
+            self.S[K.SN0:K.SN0 + 3] = p
+            self.S[K.SCLK, 0] = snap["S"][K.SCLK, 0]
+            self.S[K.SY] = snap["u_hist"][-1]
+            self.u_hist = [snap["u_hist"][-1]] * HISTORY_ROWS
         else:
-            self.S[:], self.bw_z[:], self.u_prev[:] = snap["S"], snap["bw_z"], snap["u_prev"]
+            self.S[:] = snap["S"]
+            self.hyst, self.u_hist = copy.deepcopy(snap["hyst"]), list(snap["u_hist"])
 
-    def _bouc_wen(self, u):
-        """Bouc-Wen hysteresis between command and spool (Wen 1976), n = 1, beta = gamma =
-        1/(2H): dz = du (1 - |z|/H) while |z| grows, dz = du while it shrinks; spool = u - z."""
-        du = u - self.u_prev
-        self.u_prev = u.copy()
-        H = self.hidden.bw_half_width_v
-        for c in np.nonzero(H > 0)[0]:
-            d, z = du[c], self.bw_z[c]
-            if d == 0.0:
-                continue
-            sg = 1.0 if d > 0 else -1.0
-            rem = abs(d)
-            if z * sg < 0:               # reversal: z follows the command back to 0
-                step = min(rem, abs(z))
-                z += sg * step
-                rem -= step
-            z = sg * H[c] - (sg * H[c] - z) * math.exp(-rem / H[c])
-            self.bw_z[c] = z
-        return u - self.bw_z
+    def _command_ms(self, i: int) -> np.ndarray:
+        """The spool command at millisecond i of the row: each chamber's command from its dead
+        time ago (commands held per 10 ms row)."""
+        if not self.dead_ms.any():
+            return self.u_hist[-1]
+        u = np.empty(4)
+        for c in range(4):
+            back = (i - self.dead_ms[c]) // 10            # 0 = this row, -1 = the row before, ...
+            u[c] = self.u_hist[-1 + back][c]
+        return u
 
     def advance_row(self, u) -> tuple[np.ndarray, np.ndarray]:
         """Hold command u (4,) [V] for 10 ms; return the true link angles (2,) and chamber
         pressures (4,) averaged over the 10 ms (DAQ averaging)."""
-        u_eff = self._bouc_wen(np.asarray(u, float))
+        u_eff = np.asarray(u, float).copy()
+        for c, op in self.hyst.items():
+            u_eff[c] = op(u_eff[c])
+        self.u_hist = self.u_hist[1:] + [u_eff]
         qsum, psum = np.zeros(2), np.zeros(4)
         d, m = self.data, self.model
         n = round(ROW_S / DT_S)
-        for _ in range(n):
-            K.step_ms(u_eff, d.qpos, d.qvel, d.qfrc_bias, self.P, self.S, DT_S, NSUB, self._tau)
+        for i in range(n):
+            K.step_ms(self._command_ms(i), d.qpos, d.qvel, d.qfrc_bias, self.P, self.S, DT_S, NSUB, self._tau)
             d.qfrc_applied[:] = self._tau
             mujoco.mj_step(m, d)
             qsum += d.qpos
@@ -205,9 +231,14 @@ class VariantArm:
         return qsum / n, psum / n
 
     def measure(self, q, p):
-        """Sensor model without noise: encoder offset, pressure offset and gain error."""
+        """Sensor model without noise: encoder offset, scale error and once-per-turn
+        eccentricity; pressure offset, gain error and a warm-up drift
+        offset + drift (1 - exp(-t / tau)) from the recording's start."""
         h = self.hidden
-        return q + h.angle_offset_rad, K.P_ATM + (1 + h.pressure_gain_error) * (p - K.P_ATM) + h.pressure_offset_pa
+        t = max(float(self.S[K.SCLK, 0]), 0.0)
+        qm = q + h.angle_offset_rad + h.angle_gain_error * q + h.angle_wobble_rad * np.sin(q + h.angle_wobble_phase)
+        drift = h.pressure_drift_pa * (1.0 - np.exp(-t / h.pressure_drift_tau_s))
+        return qm, K.P_ATM + (1 + h.pressure_gain_error) * (p - K.P_ATM) + h.pressure_offset_pa + drift
 
 
 def write_csv(path: Path, table: np.ndarray):

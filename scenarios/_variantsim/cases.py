@@ -1,4 +1,5 @@
-"""Blind cases made by the variant simulator: hidden effects drawn from a seed, concealed the
+"""Blind cases made by the variant simulator: hidden effects (a form per family, a place,
+magnitudes; :mod:`.forms`) drawn from a seed, concealed the
 way the published truthsim cases are (restarted 1 s open-loop replays of the recorded
 commands from the true state, with vs without the effect; the scale is halved until every
 channel still fits with R^2 >= 0.9, aiming at 0.91-0.97, while inside the effect's regime it
@@ -14,25 +15,54 @@ from pathlib import Path
 
 import numpy as np
 
-from .arm import ANGLE_NOISE_RAD, COLUMNS, PRESSURE_NOISE_PA, Arm2Config, write_csv
-from .control import record, replay, table
-from .effects import FAMILIES, effective, hidden_for, place_names, where
+from .arm import ANGLE_NOISE_RAD, COLUMNS, JOINTS, PRESSURE_NOISE_PA, Arm2Config, write_csv
+from .control import record, reference, replay, table
+from .effects import hidden_for
+from .forms import FORMS, PLACES, form_of, where
 
 CHANNELS = COLUMNS[1:7]
 NOISE = np.array([ANGLE_NOISE_RAD] * 2 + [PRESSURE_NOISE_PA] * 4)
 BAND = {"r2_lo": 0.91, "r2_hi": 0.97, "r2_min": 0.9, "snr_min": 3.0}
+#: pairs whose effects interact: a supply effect beside a chamber effect, a mechanical one
+#: beside a pneumatic one, an effect outside the vocabulary beside one inside it
+INTERACTING_PAIRS = (
+    ("supply_droop", "valve_leak"), ("supply_droop", "external_leak"), ("outside_vocabulary", "line_dynamics"),
+    ("coulomb_friction", "piston_leak"), ("stiction", "valve_hysteresis"), ("end_stop", "valve_lag"),
+    ("backlash", "heat_transfer"), ("viscous_friction", "outside_vocabulary"),
+)
 
 
-def draw_effects(rng: np.random.Generator, families: list[str]) -> list[dict]:
-    out = []
-    for fam in families:
-        if fam not in FAMILIES:
-            raise ValueError(f"variant simulator: unknown effect family {fam!r}; known: {', '.join(FAMILIES)}")
-        kind, form, draw = FAMILIES[fam]
-        places = place_names(kind)
-        place = places[rng.integers(0, len(places))]
-        out.append({"family": fam, "kind": form, "place": place, "where": where(kind, place), "parameters": draw(rng)})
+def draw_effects(rng: np.random.Generator, families: list[str], forms: list | None = None,
+                 ctx: dict | None = None) -> list[dict]:
+    """One effect per entry of ``families``: its form (``forms[i]``, or drawn from the
+    family's forms), a place drawn among the form's place kind where no earlier effect holds
+    the same simulator element, and magnitudes drawn by the form (``ctx`` as Form.draw)."""
+    if forms is not None and len(forms) != len(families):
+        raise ValueError(f"variant simulator: forms has {len(forms)} entries, families {len(families)}; "
+                         "give one form name (or None) per family")
+    out, taken = [], set()
+    for i, fam in enumerate(families):
+        name = forms[i] if forms is not None else None
+        if fam not in FORMS:
+            raise ValueError(f"variant simulator: unknown effect family {fam!r}; known: {', '.join(FORMS)}")
+        form = form_of(fam, name) if name is not None else FORMS[fam][int(rng.integers(0, len(FORMS[fam])))]
+        free = [p for p in PLACES[form.kind] if not any((s, p) in taken for s in form.slots)]
+        if not free:
+            raise ValueError(f"variant simulator: no free place for {fam}/{form.name}: every "
+                             f"{form.kind} already holds its element ({', '.join(form.slots)})")
+        place = free[int(rng.integers(0, len(free)))]
+        taken |= {(s, place) for s in form.slots}
+        params = form.draw(rng, {**(ctx or {}), "place": place})
+        out.append({"family": fam, "form": form.name, "kind": form.name, "place_kind": form.kind,
+                    "place": place, "where": where(form.kind, place), "source": form.source,
+                    "parameters": params})
     return out
+
+
+def reference_reach(seconds: float, ref_seed: int) -> dict:
+    """joint -> (lowest, highest) angle [rad] of the reference the main recording follows."""
+    ref = reference(seconds, ref_seed)
+    return {j: (float(ref[:, i].min()), float(ref[:, i].max())) for i, j in enumerate(JOINTS)}
 
 
 def concealment_stats(cfg: Arm2Config, rec: dict, hidden=None) -> dict:
@@ -88,19 +118,25 @@ def _tracking(rec) -> list[float]:
     return [round(float(v), 3) for v in np.degrees(np.sqrt(((rec["ref"] - rec["q_clean"]) ** 2).mean(0)))]
 
 
-def make_case(out: Path, seed: int, families: list[str], *, seconds: float = 60.0, heldout_seconds: float = 30.0,
-              fraction: float | None = None, conceal_effects: bool = True, name: str | None = None) -> dict:
-    """Write ``<name>.csv``, ``<name>_heldout.csv`` and ``<name>.truth.json`` into ``out``."""
+def make_case(out: Path, seed: int, families: list[str], *, forms: list | None = None, seconds: float = 60.0,
+              heldout_seconds: float = 30.0, fraction: float | None = None, conceal_effects: bool = True,
+              name: str | None = None) -> dict:
+    """Write ``<name>.csv``, ``<name>_heldout.csv`` and ``<name>.truth.json`` into ``out``.
+
+    ``families``: vocabulary family names and/or "outside_vocabulary" ([] = a null case);
+    ``forms``: a form name per entry (None = drawn with the seed).  The parameter errors come
+    from their own stream of the seed, so a case and its null twin (same seed and fraction)
+    share the perturbed arm."""
     t_start = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     name = name or f"variant_{seed}"
     rng = np.random.default_rng(seed)
-    effects = draw_effects(rng, families)
-    fraction = fraction if fraction is not None else (0.03 if families else 0.10)
-    cfg, factors = Arm2Config().perturbed(rng, fraction)
     seeds = {"reference": seed * 1000 + 1, "heldout_reference": seed * 1000 + 2,
              "noise": seed * 1000 + 3, "heldout_noise": seed * 1000 + 4}
+    effects = draw_effects(rng, families, forms, {"reach_rad": reference_reach(seconds, seeds["reference"])})
+    fraction = fraction if fraction is not None else (0.03 if families else 0.10)
+    cfg, factors = Arm2Config().perturbed(np.random.default_rng([seed, 2]), fraction)
     if effects and conceal_effects:
         k, main, st, history = conceal(cfg, effects, seconds, seeds["reference"], seeds["noise"])
         concealment = {"method": "restarted 1 s open-loop replays of the recorded commands from the true state, "
@@ -112,11 +148,12 @@ def make_case(out: Path, seed: int, families: list[str], *, seconds: float = 60.
         concealment = {"method": "null case: restarted replays through the UNPERTURBED model",
                        **concealment_stats(Arm2Config(), main)} if not effects else {"scale": 1.0}
     held = record(cfg, hidden_for(effects, k), heldout_seconds, seeds["heldout_reference"], seeds["heldout_noise"])
-    truth_effects = [{**e, "scale": k, "effective": effective(e["family"], e["parameters"], k)} for e in effects]
+    truth_effects = [{**e, "scale": k, "effective": form_of(e["family"], e["form"]).effective(e["parameters"], k)}
+                     for e in effects]
     paths = {"main": str(out / f"{name}.csv"), "heldout": str(out / f"{name}_heldout.csv")}
     write_csv(Path(paths["main"]), table(main))
     write_csv(Path(paths["heldout"]), table(held))
-    truth = {"case_id": name, "generator": "variantsim-1", "seed": seed,
+    truth = {"case_id": name, "generator": "variantsim-2", "seed": seed,
              "kind": "effect" if effects else "null", "families": families,
              "effects": truth_effects, "locations": [{"family": e["family"], "where": e["where"]} for e in effects],
              "parameter_perturbation": {"fraction": fraction, "factors": factors},

@@ -87,6 +87,7 @@ def record(cfg: Arm2Config, hidden: Hidden | None, seconds: float, ref_seed: int
     rng = np.random.default_rng(noise_seed)
     arm = VariantArm(cfg, hidden)
     arm.reset(ref[0])
+    arm.start_clock(seconds, preroll_s)
     ctrl = PIDF()
     ctrl.reset(ref[0])
     qc, pc = arm.measure(ref[0].copy(), np.full(4, 4.5e5))
@@ -120,6 +121,7 @@ def replay(cfg: Arm2Config, rec: dict, hidden: Hidden | None = None) -> tuple[np
     n = len(rec["u"])
     q_out, p_out = np.full((n, 2), np.nan), np.full((n, 4), np.nan)
     arm = VariantArm(cfg, hidden)
+    arm.start_clock(n * ROW_S, 0.0)          # the supply step's time; the snapshots carry the clock
     for k0, snap in sorted(rec["snaps"].items()):
         arm.restore(snap, physics_only=True)
         for k in range(k0, min(k0 + SEGMENT_ROWS, n - 1)):

@@ -1,11 +1,10 @@
 """The per-millisecond physics of the variant simulator (numba): valves, lines, chambers,
-cylinders, transmission and joint friction, with every variant effect switched by its
-parameter row (0 = off).
+cylinders, transmission, supply and joint torques, with every variant effect switched by its
+parameter row (0 = off; rows in :mod:`.rows`, flow laws in :mod:`.flows`, joint torques in
+:mod:`.mechanics`).
 
-Written from the arm2 reference numbers (``reference/arm2.md`` beside DESIGN.md) and paper 002
-only (no pneumasim import).
-Chambers are columns 0..3 = shoulder.a, shoulder.b, elbow.a, elbow.b; joints / actuators
-columns 0..1 = shoulder, elbow.  ``P[row, col]`` holds parameters, ``S[row, col]`` states.
+Written from the arm2 reference numbers (``reference/arm2.md`` beside DESIGN.md), paper 002
+and the sources the functions name (no pneumasim import).
 """
 from __future__ import annotations
 
@@ -14,68 +13,35 @@ import math
 import numpy as np
 from numba import njit
 
-# -- air (arm2.md "Air") -------------------------------------------------------------------
-KAPPA = 1.4
-R_GAS = 287.0
-T0 = 293.15
-P_ATM = 1.0e5
-P_SUPPLY = 7.0e5
-#: laminarised below this pressure ratio distance (arm2.md: p_down/p_up > 0.995)
-LAMINAR_RATIO = 0.995
-CRIT_RATIO = (2.0 / (KAPPA + 1.0)) ** (KAPPA / (KAPPA - 1.0))
-#: paper 002 eq. 8 (choked) and eq. 7 (subsonic) coefficients, per unit area and upstream pressure
-BETA = math.sqrt(KAPPA / (R_GAS * T0) * (2.0 / (KAPPA + 1.0)) ** ((KAPPA + 1.0) / (KAPPA - 1.0)))
-ALPHA = math.sqrt(2.0 * KAPPA / (R_GAS * T0 * (KAPPA - 1.0)))
+from .flows import (  # noqa: F401  (re-exported: the constants of the air and the orifice)
+    ALPHA, BETA, CRIT_RATIO, KAPPA, LAMINAR_RATIO, P_ATM, P_SUPPLY, R_GAS, SOUND_M_S, T0,
+    leak_flow, line_friction_rate, orifice, series_area, valve_null_leak,
+)
+from .mechanics import end_stop_torque, friction, outside_joint_torque
+from .rows import *  # noqa: F403  (the row numbers are the kernel's vocabulary)
+from .rows import (
+    ACYL, AE, AS, BL_C, BL_GAP, BL_J, BL_K, BL_N, DAMP, EX_A, EX_B, EX_MODE, HT_CW, HT_F, HT_NAT,
+    HT_SCALE, HT_WA, INERTIA, LN_ATT, LN_DELAY, LN_LEN, LN_MODE, LN_TAU, LN_V, NBUF, OS_AMP, OS_HZ,
+    OS_STEP, OS_T, OV_AR, OV_CV, PL_A, PL_B, PL_MODE, R_ARM, SB0, SBI, SCLK, SCMP, SIGN, SM0, SMS, SN0,
+    SP, SP_RATE, SP_TAU, SP_W, SP_Z, SPS, SPT, ST, STH, STHD, STROKE, STW, SU_A, SU_BAND, SU_LK, SU_MODE,
+    SU_QC, SU_R, SU_V, SY, SYD, VD, VL_A, VL_B, VL_MODE, VL_W,
+)
+
 #: reference mass flow of the flow-dependent heat transfer coefficient [kg/s]
 MDOT_REF = 2e-4
-
-# -- parameter rows ---------------------------------------------------------------------------
-AS, AE, VD, ACYL, SIGN = 0, 1, 2, 3, 4              # chamber: valve areas, dead volume, piston area, +1 a / -1 b
-R_ARM, STROKE = 5, 6                               # joint: moment arm [m], stroke [m]
-BW_H = 7                                           # chamber: Bouc-Wen half width [V] (used in Python)
-SP_W, SP_Z = 8, 9                                  # chamber: spool natural frequency [rad/s], damping ratio
-UL_G, UL_B = 10, 11                                # chamber: underlap conductance [kg/(s Pa)], band [-]
-EX_G = 12                                          # chamber: laminar external leak [kg/(s Pa^2)]
-LN_V, LN_TAU = 13, 14                              # chamber: tube volume [m^3], tube time constant [s]
-HT_NAT, HT_F, HT_SCALE = 15, 16, 17                # chamber: hA natural [W/K], hA forced at MDOT_REF [W/K], scale
-PL_G = 18                                          # actuator: laminar piston leak a->b [kg/(s Pa^2)]
-LG_FC, LG_FS, LG_VS, LG_S0, LG_S1, LG_S2 = 19, 20, 21, 22, 23, 24   # joint: LuGre
-KP_FS, KP_FC, KP_DV = 25, 26, 27                   # joint: Karnopp stick-slip
-VS_B0, VS_B1 = 28, 29                              # joint: viscous + pressure-dependent seal viscous
-BL_GAP, BL_K, BL_C, BL_J = 30, 31, 32, 33          # joint: compliant dead zone, piston inertia
-SU_A, SU_V = 34, 35                                # col 0: regulator orifice area [m^2], reservoir volume [m^3]
-DAMP, INERTIA = 36, 37                             # joint: MJCF damping, rough diagonal inertia (Karnopp)
-NP = 38
-# -- state rows -------------------------------------------------------------------------------
-SP, ST, SPT, SY, SYD = 0, 1, 2, 3, 4               # chamber: pressure, gas temperature, tube pressure, spool, spool rate
-SLZ, STH, STHD = 5, 6, 7                           # joint: LuGre bristle, piston angle, piston rate
-SPS = 8                                            # col 0: supply pressure
-NS = 9
+#: the regulator's upstream line pressure (supply modes 1 and 3) [Pa]
+P_LINE = 8.0e5
+#: supply_droop forms (SU_MODE row)
+SU_RESERVOIR, SU_STATIC, SU_PROPORTIONAL, SU_COMPRESSOR = 1, 2, 3, 4
+#: line forms (LN_MODE row)
+LN_TWO_VOLUME, LN_DELAYED, LN_RLC = 1, 2, 3
+#: the static droop's flow filter [s] (the supply line's own lag; breaks the algebraic loop)
+STATIC_DROOP_TAU_S = 0.005
 
 VALVE_LEAK_F = 0.02
 VALVE_LEAK_W = 0.6 / 5.0
 VALVE_DEAD = 0.15 / 5.0
 VALVE_GAMMA = 1.3
-
-
-@njit(cache=True)
-def orifice(p_up, p_down):
-    """Isentropic mass flow per unit effective area from p_up to p_down [kg/(s m^2)], signed
-    (paper 002 eqs. 6-8), linear in the pressure difference for ratios above 0.995."""
-    sgn = 1.0
-    if p_down > p_up:
-        p_up, p_down = p_down, p_up
-        sgn = -1.0
-    if p_up <= 0.0:
-        return 0.0
-    r = p_down / p_up
-    if r <= CRIT_RATIO:
-        return sgn * BETA * p_up
-    if r > LAMINAR_RATIO:
-        rl = LAMINAR_RATIO
-        fl = ALPHA * p_up * math.sqrt(rl ** (2.0 / KAPPA) - rl ** ((KAPPA + 1.0) / KAPPA))
-        return sgn * fl * (1.0 - r) / (1.0 - rl)
-    return sgn * ALPHA * p_up * math.sqrt(r ** (2.0 / KAPPA) - r ** ((KAPPA + 1.0) / KAPPA))
 
 
 @njit(cache=True)
@@ -89,128 +55,280 @@ def valve_areas(u, a_s, a_e):
 
 
 @njit(cache=True)
+def spool(u, P, S, c, h):
+    """Spool position [V] after the valve's own dynamics: second order (omega_n, zeta; the
+    classic servovalve approximation, Merritt 1967 ch. 5), first order (tau), a rate limit
+    [V/s] (the solenoid's force bounds the spool speed), or the command itself."""
+    if P[SP_W, c] > 0.0:
+        w = P[SP_W, c]
+        if w * h > 0.3:      # a spool this fast (a concealed one) settles within the sub-step
+            S[SY, c], S[SYD, c] = u, 0.0
+            return u
+        S[SYD, c] += h * (w * w * (u - S[SY, c]) - 2.0 * P[SP_Z, c] * w * S[SYD, c])
+        S[SY, c] += h * S[SYD, c]
+    elif P[SP_TAU, c] > 0.0:
+        S[SY, c] = u + (S[SY, c] - u) * math.exp(-h / P[SP_TAU, c])
+    elif P[SP_RATE, c] > 0.0:
+        step = P[SP_RATE, c] * h
+        S[SY, c] += min(step, max(-step, u - S[SY, c]))
+    else:
+        return u
+    return S[SY, c]
+
+
+@njit(cache=True)
+def chamber_volume(P, c, th):
+    """Chamber volume [m^3] at piston angle th: V_dead + A x (arm2.md), plus a delayed line's
+    tube volume."""
+    j = c // 2
+    x = 0.5 * P[STROKE, j] + P[R_ARM, j] * th
+    vol = P[VD, c] + P[ACYL, c] * (x if P[SIGN, c] > 0 else P[STROKE, j] - x)
+    if P[LN_MODE, c] == LN_DELAYED:
+        vol += P[LN_V, c]
+    return vol
+
+
+@njit(cache=True)
+def valve_node_pressure(P, S, c):
+    """The pressure the valve's chamber port sees: the tube's valve end or the chamber."""
+    return S[SPT, c] if P[LN_MODE, c] == LN_TWO_VOLUME else S[SP, c]
+
+
+@njit(cache=True)
+def valve_flows(y, ps, pn, P, c):
+    """(supply -> node, net valve -> node) mass flows [kg/s] at spool y [V]: the arm2.md valve
+    (paper 002 orifices), a chamber-port restriction in series with its exhaust path, and
+    the null-leak form of the VL_MODE row."""
+    a_s, a_e, s = valve_areas(y, P[AS, c], P[AE, c])
+    if P[OV_AR, c] > 0.0:
+        a_e = series_area(a_e, P[OV_AR, c])
+    m_s = a_s * orifice(ps, pn)
+    m_e = a_e * orifice(pn, P_ATM)
+    if P[VL_MODE, c] > 0.0:
+        ls, le = valve_null_leak(int(P[VL_MODE, c]), P[VL_A, c], P[VL_W, c], P[VL_B, c], s, ps, pn)
+        m_s += ls
+        m_e += le
+    return m_s, m_s - m_e
+
+
+@njit(cache=True)
+def line(m_v, pn, P, S, c, vol, h):
+    """The mass flow [kg/s] the chamber receives from the valve through its line form:
+    LN_TWO_VOLUME a tube volume and a laminar resistance (one lumped R and C; exchange exact
+    for a frozen conductance); LN_DELAYED the valve's flow delayed by LN_DELAY and attenuated
+    by LN_ATT (pure delay + volume; or Richer & Hurmuzlu 2000, ASME JDSMC 122:405, eq. 19's
+    delayed, attenuated flow).  LN_RLC is :func:`rlc_line`."""
+    mode = P[LN_MODE, c]
+    if mode == LN_TWO_VOLUME:
+        p, vt = S[SP, c], P[LN_V, c]
+        g = vt / (R_GAS * T0 * P[LN_TAU, c]) * (pn + p) / (2.0 * 4.0e5)
+        lam = KAPPA * R_GAS * T0 * g * (1.0 / vt + 1.0 / vol)
+        frac = (1.0 - math.exp(-lam * h)) / (lam * h) if lam * h > 1e-12 else 1.0
+        m_x = g * (pn - p) * frac
+        S[SPT, c] += h * KAPPA * R_GAS * T0 / vt * (m_v - m_x)
+        return m_x
+    if mode == LN_DELAYED:
+        i = int(S[SBI, c])
+        S[SB0 + i, c] = m_v
+        d = min(NBUF - 1, int(round(P[LN_DELAY, c] / h)))
+        out = S[SB0 + (i - d) % NBUF, c]
+        S[SBI, c] = (i + 1) % NBUF
+        return P[LN_ATT, c] * out
+    return m_v
+
+
+@njit(cache=True)
+def rlc_line(y, ps, P, S, c, vol, h):
+    """LN_RLC: three lumped segments of volume V/3, inertance (L/3)/A and laminar friction
+    32 mu/(rho d^2) between the valve and the chamber (a lumped transmission line, as in
+    Krichel & Sawodny's pneumatic line models).  Short segments are stiff (wave frequency
+    ~ c / (L/3), a small first volume against the valve's laminar conductance), so the line
+    and the valve's flow into it take their own sub-steps; the chamber pressure evolves
+    locally with the line's flow only.  Returns the mean (supply -> valve, line -> chamber)
+    mass flows [kg/s] over h."""
+    seg_v, seg_l = P[LN_V, c] / 3.0, P[LN_LEN, c] / 3.0
+    area = P[LN_V, c] / P[LN_LEN, c]
+    d = math.sqrt(4.0 * area / math.pi)
+    krt = KAPPA * R_GAS * T0
+    # arm2's valve relaxes a 3 cm^3 volume at ~1600 1/s (arm.py NSUB); leak forms add less
+    valve_rate = 1600.0 * 3e-6 / seg_v * (P[AS, c] + P[AE, c]) / 1.7e-6 * 2.0
+    wave = max(2.0 * SOUND_M_S / seg_l, math.sqrt(krt * area / (seg_l * vol)))
+    m = max(1, int(math.ceil(h * max(valve_rate / 0.5, wave / 0.3))))
+    hs = h / m
+    p_ch = S[SP, c]
+    sum_s, sum_out = 0.0, 0.0
+    for _ in range(m):
+        m_s, m_v = valve_flows(y, ps, S[SN0, c], P, c)
+        for i in range(3):   # inertance first (symplectic Euler), then the node pressures
+            p_up = S[SN0 + i, c]
+            p_dn = S[SN0 + i + 1, c] if i < 2 else p_ch
+            rate = line_friction_rate(0.5 * (p_up + p_dn), d)
+            S[SM0 + i, c] += hs * (area / seg_l * (p_up - p_dn) - rate * S[SM0 + i, c])
+        S[SN0, c] += hs * krt / seg_v * (m_v - S[SM0, c])
+        for i in range(1, 3):
+            S[SN0 + i, c] += hs * krt / seg_v * (S[SM0 + i - 1, c] - S[SM0 + i, c])
+        p_ch += hs * krt / vol * S[SM0 + 2, c]
+        sum_s += m_s
+        sum_out += S[SM0 + 2, c]
+    return sum_s / m, sum_out / m
+
+
+@njit(cache=True)
+def chamber_pdot(P, S, c, m_in, vol, vdot, h):
+    """dp/dt [Pa/s] of chamber c (paper 002 eq. 9), with the wall compliance dV/dp = OV_CV
+    (V grows with gauge pressure: dp/dt = kappa (R T0 mdot - p Vdot) / (V + kappa p C_v)) and
+    the heat-transfer deviation (gas temperature a state; wall at T0 or a wall node of heat
+    capacity HT_CW exchanging with the room at HT_WA: a two-node lumped model, Incropera &
+    DeWitt, lumped capacitance); the gas and wall temperatures advance by h here."""
+    p = S[SP, c]
+    cv = P[OV_CV, c]
+    vol_eff = vol + cv * (p - P_ATM)
+    pdot = KAPPA * (R_GAS * T0 * m_in - p * vdot) / (vol_eff + KAPPA * p * cv)
+    if P[HT_SCALE, c] > 0.0:
+        # energy balance with outflow at the gas temperature and convection hA(|mdot|)
+        # (Dittus-Boelter-like ^0.8; hA_f = 0 is a constant hA)
+        T = S[ST, c]
+        tw = S[STW, c] if P[HT_CW, c] > 0.0 else T0
+        ha = P[HT_NAT, c] + P[HT_F, c] * (abs(m_in) / MDOT_REF) ** 0.8
+        m_out = max(-m_in, 0.0)
+        dev = -KAPPA * R_GAS / vol_eff * m_out * (T - T0) - (KAPPA - 1.0) * ha * (T - tw) / vol_eff
+        pdot += P[HT_SCALE, c] * dev
+        S[ST, c] += h * T * (pdot / p + vdot / vol_eff - m_in * R_GAS * T / (p * vol_eff))
+        if P[HT_CW, c] > 0.0:
+            S[STW, c] += h * (ha * (T - tw) - P[HT_WA, c] * (tw - T0)) / P[HT_CW, c]
+    return pdot
+
+
+@njit(cache=True)
+def supply_pressure(P, S):
+    """Pressure at the valves' supply ports [Pa]: 7 bar, or the supply_droop form's state,
+    plus the outside-vocabulary compressor ripple and supply step."""
+    ps = S[SPS, 0] if P[SU_MODE, 0] > 0.0 else P_SUPPLY
+    t = S[SCLK, 0]
+    if P[OS_AMP, 0] != 0.0:
+        ps += P[OS_AMP, 0] * math.sin(2.0 * math.pi * P[OS_HZ, 0] * t)
+    if P[OS_STEP, 0] != 0.0 and t >= P[OS_T, 0]:
+        ps += P[OS_STEP, 0]
+    return ps
+
+
+@njit(cache=True)
+def supply_update(P, S, m_supply, h):
+    """Advance the supply_droop form by h: SU_RESERVOIR a reservoir (isothermal, SU_V) fed
+    from 7 bar through a regulator orifice SU_A, exact for a frozen conductance; SU_STATIC a static droop p_s = 7 bar - R mdot (mdot filtered over 5 ms; a
+    regulator's flow characteristic, ISO 6953-1); SU_PROPORTIONAL a reservoir fed by a
+    regulator whose opening is proportional to its error over the band SU_BAND (a
+    proportional regulator's droop; orifice from P_LINE); SU_COMPRESSOR a reservoir filled at
+    SU_QC [kg/s] by a compressor a pressure switch runs between 7 bar - SU_BAND and 7 bar,
+    drained by the valves and a system leak SU_LK [kg/(s Pa)] (Beater 2007, Pneumatic
+    Drives, ch. 2: compressed-air supply)."""
+    mode = P[SU_MODE, 0]
+    p = S[SPS, 0]
+    k_res = R_GAS * T0 / P[SU_V, 0] if P[SU_V, 0] > 0.0 else 0.0
+    if mode == SU_RESERVOIR:
+        dp = max(P_SUPPLY - p, 10.0)
+        g = P[SU_A, 0] * orifice(P_SUPPLY, P_SUPPLY - dp) / dp
+        pss = P_SUPPLY - m_supply / g
+        S[SPS, 0] = pss + (p - pss) * math.exp(-k_res * g * h)
+    elif mode == SU_STATIC:
+        S[SMS, 0] += (m_supply - S[SMS, 0]) * h / STATIC_DROOP_TAU_S
+        S[SPS, 0] = P_SUPPLY - P[SU_R, 0] * max(S[SMS, 0], 0.0)
+    elif mode == SU_PROPORTIONAL:
+        band = P[SU_BAND, 0]
+        full = P[SU_A, 0] * orifice(P_LINE, p)             # regulator flow wide open [kg/s]
+        if P_SUPPLY - p >= band:
+            S[SPS, 0] = p + h * k_res * (full - m_supply)
+        else:   # opening linear in p inside the band: implicit Euler (a narrow band is stiff)
+            g = full / band
+            p_new = (p + h * k_res * (g * P_SUPPLY - m_supply)) / (1.0 + h * k_res * g)
+            S[SPS, 0] = p_new if p_new <= P_SUPPLY else p - h * k_res * m_supply
+    elif mode == SU_COMPRESSOR:
+        if p >= P_SUPPLY:
+            S[SCMP, 0] = 0.0
+        elif p <= P_SUPPLY - P[SU_BAND, 0]:
+            S[SCMP, 0] = 1.0
+        m_c = P[SU_QC, 0] * S[SCMP, 0]
+        S[SPS, 0] = p + h * k_res * (m_c - m_supply - P[SU_LK, 0] * (p - P_ATM))
+
+
+@njit(cache=True)
+def transmission(P, S, j, tc, q, qd, h, nsub):
+    """The torque [N m / nsub] the cylinder torque tc puts on link j over one sub-step: tc
+    itself, or through a dead zone between the piston (own inertia BL_J) and the link:
+    contact k pen + c (rate), or Hunt-Crossley (k + c rate) pen^n when BL_N > 0 (impact
+    damping; Hunt & Crossley 1975); the dead zone of Nordin & Gutman 2002 (Automatica 38:1633)."""
+    if P[BL_GAP, j] <= 0.0:
+        return tc / nsub
+    d = S[STH, j] - q[j]
+    half = 0.5 * P[BL_GAP, j]
+    pen = d - min(half, max(-half, d))
+    rate = S[STHD, j] - qd[j]
+    if pen == 0.0:
+        tt = 0.0
+    elif P[BL_N, j] > 0.0:
+        sg = 1.0 if pen > 0 else -1.0
+        tt = sg * max(0.0, (P[BL_K, j] + P[BL_C, j] * sg * rate) * abs(pen) ** P[BL_N, j])
+    else:
+        tt = P[BL_K, j] * pen + P[BL_C, j] * rate
+    S[STHD, j] += h * (tc - tt) / P[BL_J, j]
+    S[STH, j] += h * S[STHD, j]
+    return tt / nsub
+
+
+@njit(cache=True)
 def step_ms(u, q, qd, bias, P, S, dt, nsub, tau):
-    """Advance the fluid, the pistons and the friction states by ``dt`` [s] in ``nsub``
-    explicit sub-steps; write the generalised force on the two links into ``tau`` (2,) [N m].
+    """Advance the fluid, the pistons, the supply and the friction states by ``dt`` [s] in
+    ``nsub`` explicit sub-steps; write the generalised force on the two links into ``tau``
+    (2,) [N m].
 
-    u (4,): command after valve hysteresis [V]; q, qd (2,): link angle [rad] and rate [rad/s]
-    (held over dt); bias (2,): MuJoCo's qfrc_bias (gravity + Coriolis) for the stick test.
-
-    One compiled loop over the explicit sub-steps, its blocks in the order of the equations
-    (valve areas, flows, pressures, piston forces, friction states): a transcription kept whole
-    so it can be read against the independent simulator's written model, not against
-    pneumasim's code."""
+    u (4,): spool command after valve hysteresis and dead time [V]; q, qd (2,): link angle
+    [rad] and rate [rad/s] (held over dt); bias (2,): MuJoCo's qfrc_bias (gravity +
+    Coriolis) for the stick test.  The blocks follow the equations: supply, valve, line,
+    leaks, chamber pressures (002 eq. 9), cylinder torque and transmission, supply state;
+    then the joint torques."""
     h = dt / nsub
     tau_cyl = np.zeros(2)
+    m_in = np.zeros(4)
+    th = np.empty(2)
+    thd = np.empty(2)
     for _ in range(nsub):
-        th = np.empty(2)
-        thd = np.empty(2)
         for j in range(2):
-            if P[BL_GAP, j] > 0.0:
-                th[j] = S[STH, j]
-                thd[j] = S[STHD, j]
-            else:
-                th[j] = q[j]
-                thd[j] = qd[j]
-        ps = S[SPS, 0] if P[SU_A, 0] > 0.0 else P_SUPPLY
+            compliant = P[BL_GAP, j] > 0.0
+            th[j] = S[STH, j] if compliant else q[j]
+            thd[j] = S[STHD, j] if compliant else qd[j]
+        ps = supply_pressure(P, S)
         m_supply = 0.0
-        m_in = np.zeros(4)
         for c in range(4):
-            # spool: second-order (omega_n, zeta) or follows the command
-            if P[SP_W, c] > 0.0:
-                w = P[SP_W, c]
-                acc = w * w * (u[c] - S[SY, c]) - 2.0 * P[SP_Z, c] * w * S[SYD, c]
-                S[SYD, c] += h * acc
-                S[SY, c] += h * S[SYD, c]
-                y = S[SY, c]
+            y = spool(u[c], P, S, c, h)
+            vol = chamber_volume(P, c, th[c // 2])
+            if P[LN_MODE, c] == LN_RLC:
+                m_s, m_in[c] = rlc_line(y, ps, P, S, c, vol, h)
             else:
-                y = u[c]
-            a_s, a_e, s = valve_areas(y, P[AS, c], P[AE, c])
-            pn = S[SPT, c] if P[LN_V, c] > 0.0 else S[SP, c]
-            m_s = a_s * orifice(ps, pn)
-            m_v = m_s - a_e * orifice(pn, P_ATM)
-            if P[UL_G, c] > 0.0:  # laminar underlap flow across the spool lands near null
-                tri = max(0.0, 1.0 - abs(s) / P[UL_B, c])
-                g = P[UL_G, c] * tri
-                m_s += g * (ps - pn)
-                m_v += g * (ps - pn) - g * (pn - P_ATM)
+                pn = valve_node_pressure(P, S, c)
+                m_s, m_v = valve_flows(y, ps, pn, P, c)
+                m_in[c] = line(m_v, pn, P, S, c, vol, h)
             m_supply += m_s
-            if P[LN_V, c] > 0.0:  # two-volume line: tube volume + laminar resistance
-                p = S[SP, c]
-                vt = P[LN_V, c]
-                g = vt / (R_GAS * T0 * P[LN_TAU, c]) * (pn + p) / (2.0 * 4.0e5)
-                j = c // 2
-                x = 0.5 * P[STROKE, j] + P[R_ARM, j] * th[j]
-                vol = P[VD, c] + P[ACYL, c] * (x if P[SIGN, c] > 0 else P[STROKE, j] - x)
-                lam = KAPPA * R_GAS * T0 * g * (1.0 / vt + 1.0 / vol)
-                frac = (1.0 - math.exp(-lam * h)) / (lam * h) if lam * h > 1e-12 else 1.0
-                m_x = g * (pn - p) * frac
-                S[SPT, c] += h * KAPPA * R_GAS * T0 / vt * (m_v - m_x)
-                m_in[c] = m_x
-            else:
-                m_in[c] = m_v
-            if P[EX_G, c] > 0.0:  # laminar (capillary) leak to the room
-                m_in[c] -= P[EX_G, c] * (S[SP, c] ** 2 - P_ATM ** 2)
+            if P[EX_MODE, c] > 0.0:
+                m_in[c] -= leak_flow(int(P[EX_MODE, c]), P[EX_A, c], P[EX_B, c], S[SP, c], P_ATM)
         for j in range(2):
-            if P[PL_G, j] > 0.0:  # laminar leak past the piston seal, a -> b
-                ml = P[PL_G, j] * (S[SP, 2 * j] ** 2 - S[SP, 2 * j + 1] ** 2)
+            if P[PL_MODE, j] > 0.0:   # past the piston seal, a -> b: mass conserving
+                ml = leak_flow(int(P[PL_MODE, j]), P[PL_A, j], P[PL_B, j], S[SP, 2 * j], S[SP, 2 * j + 1])
                 m_in[2 * j] -= ml
                 m_in[2 * j + 1] += ml
         for c in range(4):
             j = c // 2
-            x = 0.5 * P[STROKE, j] + P[R_ARM, j] * th[j]
-            xc = x if P[SIGN, c] > 0 else P[STROKE, j] - x
-            vol = P[VD, c] + P[ACYL, c] * xc
             vdot = P[SIGN, c] * P[ACYL, c] * P[R_ARM, j] * thd[j]
-            p = S[SP, c]
-            pdot = KAPPA / vol * (R_GAS * T0 * m_in[c] - p * vdot)  # paper 002 eq. 9
-            if P[HT_SCALE, c] > 0.0:
-                # gas temperature as a state: energy balance with outflow at the gas
-                # temperature and wall convection hA(|mdot|) (Dittus-Boelter-like ^0.8)
-                T = S[ST, c]
-                ha = P[HT_NAT, c] + P[HT_F, c] * (abs(m_in[c]) / MDOT_REF) ** 0.8
-                m_out = max(-m_in[c], 0.0)
-                dev = -KAPPA * R_GAS / vol * m_out * (T - T0) - (KAPPA - 1.0) * ha * (T - T0) / vol
-                pdot += P[HT_SCALE, c] * dev
-                S[ST, c] += h * T * (pdot / p + vdot / vol - m_in[c] * R_GAS * T / (p * vol))
-            S[SP, c] = p + h * pdot
+            pdot = chamber_pdot(P, S, c, m_in[c], chamber_volume(P, c, th[j]), vdot, h)
+            S[SP, c] += h * pdot
         for j in range(2):
             a, b = 2 * j, 2 * j + 1
             tc = P[R_ARM, j] * (P[ACYL, a] * S[SP, a] - P[ACYL, b] * S[SP, b] - (P[ACYL, a] - P[ACYL, b]) * P_ATM)
-            if P[BL_GAP, j] > 0.0:  # compliant dead zone between piston and link
-                d = S[STH, j] - q[j]
-                half = 0.5 * P[BL_GAP, j]
-                pen = d - min(half, max(-half, d))
-                tt = P[BL_K, j] * pen
-                if pen != 0.0:
-                    tt += P[BL_C, j] * (S[STHD, j] - qd[j])
-                S[STHD, j] += h * (tc - tt) / P[BL_J, j]
-                S[STH, j] += h * S[STHD, j]
-                tau_cyl[j] += tt / nsub
-            else:
-                tau_cyl[j] += tc / nsub
-        if P[SU_A, 0] > 0.0:  # reservoir behind a regulator orifice, exact for a frozen conductance
-            dp = max(P_SUPPLY - ps, 10.0)
-            g = P[SU_A, 0] * orifice(P_SUPPLY, P_SUPPLY - dp) / dp
-            pss = P_SUPPLY - m_supply / g
-            S[SPS, 0] = pss + (ps - pss) * math.exp(-R_GAS * T0 * g / P[SU_V, 0] * h)
+            tau_cyl[j] += transmission(P, S, j, tc, q, qd, h, nsub)
+        if P[SU_MODE, 0] > 0.0:
+            supply_update(P, S, m_supply, h)
+        S[SCLK, 0] += h
     for j in range(2):
         v = qd[j]
-        f = 0.0
-        if P[LG_S0, j] > 0.0:  # LuGre (Canudas de Wit et al. 1995), z exact for frozen v
-            g = P[LG_FC, j] + (P[LG_FS, j] - P[LG_FC, j]) * math.exp(-(v / P[LG_VS, j]) ** 2)
-            a = P[LG_S0, j] * abs(v) / g
-            z = S[SLZ, j]
-            zn = z if a <= 0.0 else v / a + (z - v / a) * math.exp(-a * dt)
-            S[SLZ, j] = zn
-            f += P[LG_S0, j] * zn + P[LG_S1, j] * (zn - z) / dt + P[LG_S2, j] * v
-        if P[KP_FS, j] > 0.0:  # Karnopp (1985): stick band |v| < dv holds up to Fs
-            if abs(v) < P[KP_DV, j]:
-                need = tau_cyl[j] - bias[j] - P[DAMP, j] * v + P[INERTIA, j] * v / dt
-                f += min(P[KP_FS, j], max(-P[KP_FS, j], need))
-            else:
-                f += P[KP_FC, j] * (1.0 if v > 0 else -1.0)
-        if P[VS_B0, j] > 0.0 or P[VS_B1, j] > 0.0:  # viscous + seal term growing with pressure
-            pm = 0.5 * (S[SP, 2 * j] + S[SP, 2 * j + 1])
-            f += (P[VS_B0, j] + P[VS_B1, j] * (pm - P_ATM)) * v
-        tau[j] = tau_cyl[j] - f
+        stick_need = tau_cyl[j] - bias[j] - P[DAMP, j] * v + P[INERTIA, j] * v / dt
+        tau[j] = (tau_cyl[j] - friction(P, S, j, v, dt, stick_need) + end_stop_torque(P, j, q[j], v)
+                  + outside_joint_torque(P, j, q[j]))
