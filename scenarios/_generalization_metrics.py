@@ -27,7 +27,8 @@ Definitions (primary metrics are strict; the lenient ones are the second column)
   finding of a family not hidden; a place listed in alternative_places counting), over the
   same cases.
 * outside_reported_unexplained: outside-vocabulary cases with an ``unexplained`` entry and
-  no finding, over all outside cases.
+  no finding, over all outside cases; ``outside_reported_unexplained.<kind>``: per place
+  kind of the outside effect (chamber, joint, supply, actuator), with ``outside_cases.<kind>``.
 * silent_miss_rate: cases with neither a finding nor an ``unexplained`` entry, over every
   non-null case (outside ones included).
 * null_false_discovery_rate: null cases with any finding OR any ``unexplained`` entry.
@@ -38,6 +39,10 @@ Definitions (primary metrics are strict; the lenient ones are the second column)
   effect's place exactly); ``calibration_count`` is how many there were;
   calibration_of_inclusion_lenient counts alternatives, alternative places and the friction
   leniency (``same``).
+
+doctor_errors counts the cases where the doctor failed (they count as cases with no finding
+and no unexplained entry); concealed_fraction is the fraction of non-null cases the generator
+concealed as it aims to (the rows' ``concealed``, where known).
 
 A ratio whose denominator is empty (e.g. no outside case) is left out of the metrics; the
 counts (``*_cases``, ``calibration_count``) are always there.
@@ -62,6 +67,11 @@ def case_kind(families: list[str]) -> str:
     if OUTSIDE in fams:
         return "outside"
     return "single" if len(fams) == 1 else "pair"
+
+
+def place_kind(where: dict) -> str:
+    """"chamber", "actuator", "joint" or "supply": the kind of place a ``where`` names."""
+    return "chamber" if "chamber" in where else next(k for k in ("supply", "joint", "actuator") if k in where)
 
 
 def _key(where: dict) -> str:
@@ -132,6 +142,23 @@ def family_metrics(rows: list[dict], families: list[str]) -> dict:
     return out
 
 
+def outside_metrics(rows: list[dict]) -> dict:
+    """outside_reported_unexplained over all outside cases and per place kind of the effect
+    outside the vocabulary (``outside_reported_unexplained.<kind>``, ``outside_cases.<kind>``)."""
+    outside = [r for r in rows if r["kind"] == "outside"]
+    reported = lambda r: bool(r["unexplained"]) and not r["findings"]  # noqa: E731
+    out = {"outside_reported_unexplained": _mean([reported(r) for r in outside])}
+    kinds = {}
+    for r in outside:
+        for e in r["effects"]:
+            if e["family"] == OUTSIDE:
+                kinds.setdefault(place_kind(e["where"]), []).append(reported(r))
+    for kind, flags in sorted(kinds.items()):
+        out[f"outside_cases.{kind}"] = len(flags)
+        out[f"outside_reported_unexplained.{kind}"] = _mean(flags)
+    return out
+
+
 def generalization_metrics(rows: list[dict], families: list[str], same=None) -> dict:
     """Every metric of the module docstring from the case rows; ``families``: the vocabulary
     families of the plan (for the per-family values); ``same``: the lenient family match."""
@@ -149,12 +176,14 @@ def generalization_metrics(rows: list[dict], families: list[str], same=None) -> 
         "pair_strict_effect_accuracy": _mean([strict_effect_right(r) for r in by["pair"]]),
         "lenient_effect_accuracy": _mean([bool(r["lenient_effect_ok"]) for r in effect]),
         "lenient_location_accuracy": _mean([bool(r["lenient_location_ok"]) for r in effect]),
-        "outside_reported_unexplained": _mean([bool(r["unexplained"]) and not r["findings"] for r in by["outside"]]),
+        **outside_metrics(rows),
         "silent_miss_rate": _mean([not r["findings"] and not r["unexplained"] for r in non_null]),
         "null_false_discovery_rate": _mean([bool(r["findings"] or r["unexplained"]) for r in by["null"]]),
         "median_heldout_nrmse_reduction_in_regime": float(np.median(reductions)) if reductions else None,
         "findings_with_in_regime_nrmse": len(reductions),
         "calibration_of_inclusion": cal, "calibration_of_inclusion_lenient": cal_lenient, "calibration_count": n_cal,
+        "doctor_errors": sum(bool(r.get("doctor_error")) for r in rows),
+        "concealed_fraction": _mean([bool(r["concealed"]) for r in non_null if r.get("concealed") is not None]),
         "seconds_per_case": _mean([r["seconds"] for r in rows]),
         "generate_seconds_per_case": _mean([r["generate_seconds"] for r in rows]),
         **family_metrics(rows, families),

@@ -145,6 +145,19 @@ def _finding_row(f: dict) -> dict:
     return {k: f.get(k) for k in keys}
 
 
+def _diagnose(truth: dict, folder: Path) -> tuple[dict, str | None]:
+    """The doctor on the case's CSV files, its report written beside them.  A doctor that
+    fails on a case has named nothing there: the case counts as missed (and the error is kept
+    in its row) instead of stopping an evaluation run whose seeds must not be drawn again."""
+    try:
+        report = diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
+                          [read_csv(truth["recordings"]["heldout"])])
+        write_report(report, folder, robot=None, rerun=False)
+        return report, None
+    except Exception as e:  # noqa: BLE001 - any failure of the doctor is a miss of this case
+        return {"verdict": "doctor_error", "findings": [], "unexplained": []}, f"{type(e).__name__}: {e}"
+
+
 def generalization_case(case: dict) -> dict:
     """Make one case's recordings into its folder, run the doctor on the CSV files, keep its
     report beside the truth, return the case's row (scenarios._generalization_metrics)."""
@@ -153,17 +166,16 @@ def generalization_case(case: dict) -> dict:
     truth = _make(folder, case)
     gen_s = time.perf_counter() - t0
     t0 = time.perf_counter()
-    report = diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
-                      [read_csv(truth["recordings"]["heldout"])])
+    report, error = _diagnose(truth, folder)
     secs = time.perf_counter() - t0
-    write_report(report, folder, robot=None, rerun=False)
     lenient = judge(truth, report)
     c = truth.get("concealment", {})
     return {"index": case["index"], "seed": case["seed"], "case": folder.name, "folder": str(folder),
             "kind": case_kind(case["families"]), "families": case["families"] or ["none"],
             "generator": truth.get("generator"), "effects": [_effect_row(e) for e in truth["effects"]],
-            "scale": c.get("scale", 1.0), "generator_min_r2": c.get("min_r2"),
-            "verdict": report["verdict"], "findings": [_finding_row(f) for f in report["findings"]],
+            "scale": c.get("scale", 1.0), "generator_min_r2": c.get("min_r2"), "concealed": c.get("concealed"),
+            "verdict": report["verdict"], "doctor_error": error,
+            "findings": [_finding_row(f) for f in report["findings"]],
             "unexplained": [{"where": u.get("where"), "regime": u.get("regime"),
                              "share_of_residual": u.get("share_of_residual")} for u in report["unexplained"]],
             "lenient_effect_ok": lenient["family_ok"], "lenient_location_ok": lenient["location_ok"],

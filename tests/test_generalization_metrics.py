@@ -86,6 +86,17 @@ def test_every_metric_of_the_hand_made_rows():
     assert m["min_family_accuracy"] == 0.0
     assert m["seconds_per_case"] == 10.0 and m["generate_seconds_per_case"] == 20.0
     assert (m["cases"], m["single_cases"], m["pair_cases"], m["null_cases"], m["outside_cases"]) == (8, 3, 1, 2, 2)
+    # per place kind of the outside effect: the chamber one was named (wrong), the joint one reported
+    assert (m["outside_cases.chamber"], m["outside_reported_unexplained.chamber"]) == (1, 0.0)
+    assert (m["outside_cases.joint"], m["outside_reported_unexplained.joint"]) == (1, 1.0)
+    assert m["doctor_errors"] == 0 and "concealed_fraction" not in m  # the rows do not say
+
+
+def test_a_doctor_error_is_a_silent_miss_and_counted():
+    failed = {**row([("valve_lag", ELBOW_A)]), "doctor_error": "ValueError: x", "concealed": True}
+    m = generalization_metrics([failed, {**RIGHT_SINGLE, "concealed": False}], ["valve_lag"])
+    assert m["doctor_errors"] == 1 and m["silent_miss_rate"] == 0.5 and m["strict_effect_accuracy"] == 0.5
+    assert m["concealed_fraction"] == 0.5
 
 
 def test_min_family_accuracy_is_the_worst_family():
