@@ -3,7 +3,8 @@ independent variant simulator (:mod:`scenarios._variantsim`, no pneumasim code) 
 effects take a functional form drawn at random per case, at a random place, concealed as the
 development sets are; every family of the vocabulary four times, null cases, pairs that
 interact (a supply effect beside a chamber effect, a mechanical beside a pneumatic one) and
-effects outside the vocabulary, which the doctor must report as ``unexplained``.
+effects outside the vocabulary (at a chamber, a joint and the supply), which the doctor
+must report as ``unexplained``.
 
 Honest evaluation: without a given seed, the base seed is drawn from the operating system's
 entropy when the run starts, so every full run is an evaluation on seeds nobody has looked
@@ -67,15 +68,43 @@ SEED_ENV = "PNEUMASIM_GENERALIZATION_SEED"
 FRESH_SEEDS = (100_000_000, 1_000_000_000)
 
 
-def plan(fast: bool) -> tuple[list[list[str]], float, float]:
-    """The hidden families of every case, main and held-out recording seconds.  Full: every
-    family SINGLES_PER_FAMILY times (one round of all families after the other), the nulls,
-    the pairs, the outside-vocabulary effects (their place as the generator draws it)."""
+def plan(fast: bool, seed_base: int) -> tuple[list[dict], float, float]:
+    """Every case's hidden ``families`` and ``forms`` (None: the generator draws them), main
+    and held-out recording seconds.  Full: every family SINGLES_PER_FAMILY times (one round
+    of all families after the other), the nulls, the pairs, the outside-vocabulary effects
+    (at a chamber, a joint and the supply, :func:`outside_forms`)."""
     if fast:
-        return [list(f) for f in FAST_PLAN], 30.0, 15.0
+        return [{"families": list(f), "forms": None} for f in FAST_PLAN], 30.0, 15.0
     cases = [[fam] for _ in range(SINGLES_PER_FAMILY) for fam in FAMILIES]
-    cases += [[] for _ in range(NULLS)] + [list(p) for p in PAIRS] + [[OUTSIDE] for _ in range(OUTSIDES)]
+    cases += [[] for _ in range(NULLS)] + [list(p) for p in PAIRS]
+    cases = [{"families": fams, "forms": None} for fams in cases]
+    cases += [{"families": [OUTSIDE], "forms": None if form is None else [form]}
+              for form in outside_forms(np.random.default_rng(seed_base))]
     return cases, 60.0, 30.0
+
+
+def outside_forms(rng: np.random.Generator) -> list[str | None]:
+    """OUTSIDES outside-vocabulary forms spread evenly over the place kinds chamber, joint and
+    supply, two different forms of each kind drawn with ``rng`` where the generator's form
+    registry (``_variantsim.forms.FORMS``: family -> forms with ``name`` and place ``kind``)
+    has them; None each (the generator draws form and place) without one."""
+    try:
+        from ._variantsim.forms import FORMS
+    except ImportError:
+        return [None] * OUTSIDES
+    kinds = ("chamber", "joint", "supply")
+    by_kind = {k: [f.name for f in FORMS.get(OUTSIDE, []) if f.kind == k] for k in kinds}
+    out = []
+    for i in range(OUTSIDES):
+        names = by_kind[kinds[i % len(kinds)]]
+        if not names:
+            out.append(None)
+            continue
+        pick = names[int(rng.integers(len(names)))]
+        if len(names) > 1:  # the next draw at this kind takes another form
+            names.remove(pick)
+        out.append(pick)
+    return out
 
 
 def choose_seed_base(out: Path, fast: bool) -> tuple[int, str]:
@@ -123,9 +152,11 @@ def _unknown_error(names, detail: str = "") -> PneumasimError:
 
 
 def _make(folder: Path, case: dict) -> dict:
+    # forms only when chosen: a generator without form choice takes no ``forms``
+    forms = {"forms": case["forms"]} if case.get("forms") else {}
     try:
         return make_case(folder, case["seed"], case["families"], seconds=case["seconds"],
-                         heldout_seconds=case["heldout_seconds"], name=folder.name)
+                         heldout_seconds=case["heldout_seconds"], name=folder.name, **forms)
     except ValueError as e:
         if "unknown" in str(e):
             raise _unknown_error(case["families"], f" ({e})") from None
@@ -183,16 +214,16 @@ def generalization_case(case: dict) -> dict:
 
 
 def run(ctx):
-    families, seconds, held_s = plan(ctx.fast)
-    unknown = generator_unknown(f for fams in families for f in fams)
+    base, source = choose_seed_base(ctx.out, ctx.fast)
+    cases, seconds, held_s = plan(ctx.fast, base)
+    unknown = generator_unknown(f for c in cases for f in c["families"])
     if unknown:
         raise _unknown_error(unknown)
-    base, source = choose_seed_base(ctx.out, ctx.fast)
     atomic_write_json(ctx.out / "seed.json", {"seed_base": base, "seed_source": source})
-    print(f"doctor_generalization_benchmark: {len(families)} cases, seeds {base}..{base + len(families) - 1} ({source})")
-    results = sweep(generalization_case, [{"index": i, "seed": base + i, "families": fams, "seconds": seconds,
+    print(f"doctor_generalization_benchmark: {len(cases)} cases, seeds {base}..{base + len(cases) - 1} ({source})")
+    results = sweep(generalization_case, [{**c, "index": i, "seed": base + i, "seconds": seconds,
                                            "heldout_seconds": held_s, "out": str(ctx.out / "cases")}
-                                          for i, fams in enumerate(families)],
+                                          for i, c in enumerate(cases)],
                     out=ctx.out / "sweep", **options_from_env())
     raise_on_failure(results, "doctor_generalization_benchmark")
     rows = [r.result for r in results]

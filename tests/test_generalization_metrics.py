@@ -184,3 +184,41 @@ def test_seed_base_given_fresh_or_resumed(tmp_path, monkeypatch):
     assert choose_seed_base(tmp_path, fast=False) == (555000111, "fresh")  # resumed
     (tmp_path / "metrics.json").write_text("{}")  # that run finished: the next one is fresh again
     assert choose_seed_base(tmp_path, fast=False)[0] != 555000111
+
+
+def test_the_full_plan_is_80_cases_of_the_issue():
+    from collections import Counter
+
+    from scenarios.doctor_generalization_benchmark import FAMILIES, plan
+
+    cases, seconds, heldout = plan(False, 123)
+    kinds = Counter(case_kind(c["families"]) for c in cases)
+    assert (len(cases), seconds, heldout) == (80, 60.0, 30.0)
+    assert kinds == {"single": 60, "null": 6, "pair": 8, "outside": 6}
+    assert len(FAMILIES) == 15 and "force_sensor_offset" not in FAMILIES and "end_stop" in FAMILIES
+    assert Counter(c["families"][0] for c in cases if case_kind(c["families"]) == "single") == {f: 4 for f in FAMILIES}
+    pairs = [set(c["families"]) for c in cases if case_kind(c["families"]) == "pair"]
+    assert {"supply_droop", "valve_leak"} in pairs and all(len(p) == 2 for p in pairs)
+    fast, s, h = plan(True, 0)
+    assert len(fast) == 5 and (s, h) == (30.0, 15.0)
+
+
+def test_outside_forms_spread_over_chamber_joint_and_supply(monkeypatch):
+    """With a form registry, two outside forms at each place kind, different where it has two."""
+    import sys
+    import types
+    from collections import namedtuple
+
+    import numpy as np
+
+    from scenarios.doctor_generalization_benchmark import outside_forms
+
+    F = namedtuple("F", "name kind")
+    fake = types.ModuleType("scenarios._variantsim.forms")
+    fake.FORMS = {"outside_vocabulary": [F("wall", "chamber"), F("port", "chamber"), F("hose", "joint"),
+                                         F("cog", "joint"), F("ripple", "supply")],
+                  "valve_lag": [F("first_order", "chamber")]}
+    monkeypatch.setitem(sys.modules, "scenarios._variantsim.forms", fake)
+    forms = outside_forms(np.random.default_rng(5))
+    assert set(forms[0::3]) == {"wall", "port"} and set(forms[1::3]) == {"hose", "cog"}
+    assert forms[2::3] == ["ripple", "ripple"]
