@@ -15,8 +15,9 @@ Definitions (primary metrics are strict; the lenient ones are the second column)
   two findings' effects are the two hidden families, in either order); alternatives and
   friction-family leniency do not count; later findings are neither credited nor charged.
 * strict location right: the first finding's ``where`` equals the hidden effect's ``where``
-  exactly (a pair: the first two findings' places are the two hidden places, in either order),
-  whatever family it names; ``alternative_places`` do not count.
+  exactly (a pair: the first two findings' places are the two hidden places, in either order,
+  each at its own family's place when both families are named right), whatever family it
+  names; ``alternative_places`` do not count.
 * strict_effect_accuracy, strict_location_accuracy: over ALL effect cases whose families are
   in the vocabulary (single and pair cases; a case with no finding counts as wrong), not only
   over the cases named right.  ``strict_effect_accuracy.<family>`` and
@@ -90,9 +91,15 @@ def strict_effect_right(row: dict) -> bool:
 
 
 def strict_location_right(row: dict) -> bool:
-    """The first finding's place (a pair: the first two places) is exactly the hidden place."""
-    hidden = [_key(e["where"]) for e in row["effects"]]
-    named = [_key(f["where"]) for f in row["findings"][:len(hidden)]]
+    """The first finding's place (a pair: the first two places) is exactly the hidden place;
+    a pair named right must also put each family at its own place (not the two swapped)."""
+    n = len(row["effects"])
+    if strict_effect_right(row):
+        hidden = [e["family"] + _key(e["where"]) for e in row["effects"]]
+        named = [f["effect"] + _key(f["where"]) for f in row["findings"][:n]]
+    else:
+        hidden = [_key(e["where"]) for e in row["effects"]]
+        named = [_key(f["where"]) for f in row["findings"][:n]]
     return _same_multiset(named, hidden)
 
 

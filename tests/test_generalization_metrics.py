@@ -57,6 +57,13 @@ def test_strict_effect_takes_the_first_finding_only_and_pairs_in_either_order():
     assert not strict_effect_right(SILENT) and not strict_location_right(SILENT)
 
 
+def test_a_pair_named_right_at_swapped_places_is_strictly_misplaced():
+    elbow_b = {"actuator": "elbow", "chamber": "b"}
+    r = row([("valve_leak", ELBOW_A), ("valve_lag", elbow_b)],
+            [finding("valve_lag", ELBOW_A), finding("valve_leak", elbow_b)])
+    assert strict_effect_right(r) and not strict_location_right(r)
+
+
 def test_a_place_named_only_as_an_alternative_is_strictly_wrong():
     r = row([("pressure_sensor_offset", ELBOW_A)],
             [finding("pressure_sensor_offset", {"actuator": "elbow", "chamber": "b"}, places=[ELBOW_A])])
