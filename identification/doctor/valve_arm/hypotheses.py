@@ -38,6 +38,11 @@ class Hypothesis:
     null_value: float = 0.0       # the parameter value that switches the effect off (apply(mods, [null]))
     adds_volume: float = 0.0      # a tube's volume adds to this nominal dead volume [m^3]: it may grow past the calibration bound
 
+    def __post_init__(self):
+        if self.regressor is not None:  # the equations the torque data leave out, left out here too
+            reg = self.regressor
+            self.regressor = lambda exp, td: td.mask(reg(exp, td))
+
     def null_vector(self) -> np.ndarray:
         """Every parameter at the value that switches the effect off."""
         return np.full(len(self.params), self.null_value)

@@ -70,6 +70,14 @@ class TorqueData:
     breaks: tuple = ()          # sample indices where a pooled recording starts
     fixed: dict = None          # calibration parameters kept nominal -> why (calibrate_rigid_body)
     calibration: Fit = None     # calibrate_rigid_body's result, whose inertias the effect fits hold
+    joint_ok: np.ndarray = None  # (N, J) False where a joint's equation is left out (a coupled joint near its limit)
+
+    def mask(self, x: np.ndarray) -> np.ndarray:
+        """x (N, J, ...) with the equations ``joint_ok`` leaves out set to zero (a zero row of
+        torque and regressors drops out of every least-squares fit)."""
+        if self.joint_ok is None or self.joint_ok.all():
+            return x
+        return np.where(self.joint_ok.reshape(self.joint_ok.shape + (1,) * (x.ndim - 2)), x, 0.0)
 
     @property
     def residual(self) -> np.ndarray:
@@ -90,6 +98,12 @@ class TorqueData:
         bounds = (0, *self.breaks, x.shape[0])
         for a, b in zip(bounds[:-1], bounds[1:]):
             y[a:b] = sosfiltfilt(sos, x[a:b], axis=0)
+        if self.joint_ok is not None and x.ndim >= 2 and not self.joint_ok.all():
+            # a joint's equations within the filter's reach of its left-out ones mix in their zeros
+            reach = int(np.ceil(self.rate_hz / self.lowpass_hz))
+            kernel = np.ones(2 * reach + 1)
+            near = np.stack([np.convolve((~ok).astype(float), kernel, "same") > 0 for ok in self.joint_ok.T], axis=1)
+            y = np.where(near.reshape(near.shape + (1,) * (x.ndim - 2)), 0.0, y)
         return y[self.decimation_index()]
 
     def two_fold(self) -> list:
@@ -192,15 +206,39 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
         plus, _ = _inverse(model, qadr, dadr, exp.q_s + dq, exp.qd, exp.qdd)
         dtau_dq[:, :, k] = (plus - tau_inv) / 1e-5
     rng_ = robot.joint_range()
-    near = np.any((exp.q_s < rng_[:, 0] + limit_margin_rad) | (exp.q_s > rng_[:, 1] - limit_margin_rad), axis=1)
-    valid = ~near
+    near = (exp.q_s < rng_[:, 0] + limit_margin_rad) | (exp.q_s > rng_[:, 1] - limit_margin_rad)   # (N, J)
+    # a joint's equation is left out while a joint it is coupled to through the mass matrix is
+    # near its limit (MuJoCo's inverse dynamics then holds the limit's force and the impact's
+    # poorly smoothed acceleration); on arm2 every joint is coupled to every other, on a
+    # humanoid a limb's joint to its chain alone, so one joint at a limit does not drop the rest
+    joint_ok = ~((near.astype(float) @ coupled_joints(model, dadr).T.astype(float)) > 0)
+    valid = joint_ok.any(axis=1)
     for b in (0, *exp.breaks, valid.size):  # the ends of every pooled recording
         valid[max(b - edge, 0):b + edge] = False
+    joint_ok &= valid[:, None]
     lowpass = PARALLEL_FRACTION * exp.q_cutoff_hz
     if lowpass >= 0.4 * exp.rate_hz:  # noise-free angles: the spline interpolates, nothing to match
         lowpass = np.inf
-    return TorqueData(tau_act, tau_inv, np.stack(regs, axis=2), names, np.array(lo), np.array(hi), valid, dtau_dq,
-                      dtau_dp, exp.rate_hz, lowpass, tuple(exp.breaks))
+    td = TorqueData(tau_act, tau_inv, np.stack(regs, axis=2), names, np.array(lo), np.array(hi), valid, dtau_dq,
+                    dtau_dp, exp.rate_hz, lowpass, tuple(exp.breaks), joint_ok=joint_ok)
+    td.tau_act, td.tau_inv, td.regressors = td.mask(tau_act), td.mask(tau_inv), td.mask(td.regressors)
+    td.dtau_dq, td.dtau_dp = td.mask(dtau_dq), td.mask(dtau_dp)
+    return td
+
+
+def coupled_joints(model, dof_index: np.ndarray) -> np.ndarray:
+    """(J, J) bool: joints j and k share mass-matrix entries (one's dof is an ancestor of the
+    other's in the kinematic tree, MuJoCo's dof_parentid), or j == k."""
+    ancestors = []
+    for d in dof_index:
+        chain, p = set(), int(model.dof_parentid[d])
+        while p >= 0:
+            chain.add(p)
+            p = int(model.dof_parentid[p])
+        ancestors.append(chain)
+    dofs = [int(d) for d in dof_index]
+    return np.array([[j == k or dofs[k] in ancestors[j] or dofs[j] in ancestors[k] for k in range(len(dofs))]
+                     for j in range(len(dofs))])
 
 
 def _copy(model):

@@ -14,6 +14,7 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from .calibrate import fit_chambers
+from .joint_fit import fit_effect
 from .mechanics import fit_rigid_body
 from .pneumatic import replay
 
@@ -147,10 +148,11 @@ def score_mechanical(td, exp, hyps, base_extra=None):
     """Score every mechanical hypothesis by the reduction of the calibrated torque residual."""
     base = fit_rigid_body(td, *base_extra) if base_extra else fit_rigid_body(td)
     out = []
+    base_cols = 0 if base_extra is None else base_extra[0].shape[2]
     for h in hyps:
         reg = h.regressor(exp, td)
         extra, names, bounds = stack_terms(base_extra, reg, h)
-        f = fit_rigid_body(td, extra, names, bounds)
+        f = fit_effect(td, extra, names, bounds, base, base_cols)  # at its joint alone where it acts at one
         gain = 1.0 - f.rss / max(base.rss, 1e-300)
         out.append(Scored(h, gain, fit=f))
     return out, base
