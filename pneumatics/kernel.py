@@ -23,6 +23,9 @@ import math
 
 import numba
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
 
 from .medium import flow_function
 
@@ -202,11 +205,18 @@ def pack(tables, ctrl_index, dt):
 
 
 # -- the whole physics loop, compiled -------------------------------------------------------
-# mj_step1 / mj_step2 are called straight from compiled code through ctypes, so n steps run
-# without returning to Python (a Python-level loop costs ~1 us a step, a third of a 2-DOF
-# mj_step).  Where MuJoCo's shared library cannot be found, Simulation falls back to a
-# Python loop around the same kernel.
-def _load_mujoco_functions():
+# mj_step1 / mj_step2 are called straight from compiled code, so n steps run without returning
+# to Python (a Python-level loop costs ~1 us a step, a third of a 2-DOF mj_step).  The MuJoCo
+# functions' addresses are an argument (MUJOCO_FUNCTIONS), called through a pointer
+# (call_mujoco), not constants baked into the machine code: the loop and every compiled caller
+# (controllers.compiled_loop) are cached on disk like the rest of the kernel.  Where MuJoCo's
+# shared library cannot be found, Simulation falls back to a Python loop around the kernel.
+MUJOCO_FUNCTION_NAMES = ("mj_step1", "mj_step2", "mj_kinematics", "mj_comPos", "mj_tendon", "mj_transmission")
+STEP1, STEP2, KINEMATICS, COM_POS, TENDON, TRANSMISSION = range(6)
+
+
+def _mujoco_function_addresses():
+    """(6,) uint64 addresses of MUJOCO_FUNCTION_NAMES in this process's libmujoco, or None."""
     import ctypes
     import glob as _glob
     import os
@@ -217,45 +227,49 @@ def _load_mujoco_functions():
     if not libs:
         return None
     lib = ctypes.CDLL(libs[0])
-    fns = []
-    for name in ("mj_step1", "mj_step2", "mj_kinematics", "mj_comPos", "mj_tendon", "mj_transmission"):
-        fn = getattr(lib, name)
-        fn.argtypes = [ctypes.c_uint64, ctypes.c_uint64]  # (const mjModel*, mjData*)
-        fn.restype = None
-        fns.append(fn)
-    return fns
+    return np.array([ctypes.cast(getattr(lib, name), ctypes.c_void_p).value for name in MUJOCO_FUNCTION_NAMES],
+                    np.uint64)
 
 
-_FUNCTIONS = _load_mujoco_functions()
+#: addresses of MUJOCO_FUNCTION_NAMES (None where libmujoco.so is not found)
+MUJOCO_FUNCTIONS = _mujoco_function_addresses()
 
-if _FUNCTIONS is not None:
-    _mj_step1, _mj_step2, _mj_kinematics, _mj_comPos, _mj_tendon, _mj_transmission = _FUNCTIONS
 
-    @numba.njit(cache=False, error_model="numpy")
-    def run_steps_compiled(n, model_addr, data_addr, p, areas, prev_length, length, ctrl, act, ch,
-                           glob, qpos, qvel, acc, qfrc_applied, fric):
-        """n physics steps without leaving compiled code (see Simulation.step for the scheme).
+@intrinsic
+def call_mujoco(typingctx, function_address, model_address, data_address):
+    """Call ``void f(const mjModel*, mjData*)`` at ``function_address`` (all three uint64)."""
+    sig = types.void(types.uint64, types.uint64, types.uint64)
 
-        Adds p (n_ch,), qpos (nq,) and qvel (nv,) at each of the n new instants into ``acc``
-        (n_ch+nq+nv,), for sensor averaging over a control period (paper 002 §II).
+    def codegen(context, builder, signature, args):
+        address, m, d = args
+        fnty = ir.FunctionType(ir.VoidType(), [ir.IntType(64), ir.IntType(64)])
+        builder.call(builder.inttoptr(address, fnty.as_pointer()), [m, d])
+        return context.get_dummy_value()
 
-        Only this loop is compiled in every process (the MuJoCo function addresses it calls
-        change from one process to the next, so it cannot be cached); the fluid work is in the
-        cached functions it calls, which keeps a new process's first step at ~1 s, not ~25 s.
-        """
-        for k in range(n):
-            _mj_step1(model_addr, data_addr)
-            _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc,
-                              qfrc_applied, fric)
-            _mj_step2(model_addr, data_addr)
-        # catch up: actuator lengths at the new state, then the last step's pressures
-        _mj_kinematics(model_addr, data_addr)
-        _mj_comPos(model_addr, data_addr)
-        _mj_tendon(model_addr, data_addr)
-        _mj_transmission(model_addr, data_addr)
-        _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc)
-else:  # pragma: no cover - platforms without libmujoco.so
-    run_steps_compiled = None
+    return sig, codegen
+
+
+@numba.njit(cache=True, error_model="numpy")
+def physics_steps(n, fns, model_addr, data_addr, p, areas, prev_length, length, ctrl, act, ch,
+                  glob, qpos, qvel, acc, qfrc_applied, fric):
+    """n physics steps without leaving compiled code (see Simulation.step for the scheme).
+
+    ``fns``: MUJOCO_FUNCTIONS; ``model_addr`` / ``data_addr``: ``MjModel._address`` and
+    ``MjData._address`` (uint64).  Adds p (n_ch,), qpos (nq,) and qvel (nv,) at each of the n
+    new instants into ``acc`` (n_ch+nq+nv,), for sensor averaging over a control period
+    (paper 002 §II).
+    """
+    for k in range(n):
+        call_mujoco(fns[STEP1], model_addr, data_addr)
+        _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc,
+                          qfrc_applied, fric)
+        call_mujoco(fns[STEP2], model_addr, data_addr)
+    # catch up: actuator lengths at the new state, then the last step's pressures
+    call_mujoco(fns[KINEMATICS], model_addr, data_addr)
+    call_mujoco(fns[COM_POS], model_addr, data_addr)
+    call_mujoco(fns[TENDON], model_addr, data_addr)
+    call_mujoco(fns[TRANSMISSION], model_addr, data_addr)
+    _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc)
 
 
 @numba.njit(cache=True, error_model="numpy")
