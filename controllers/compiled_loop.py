@@ -88,6 +88,17 @@ def compile_controller(controller, n_joint: int) -> CompiledPIDF | None:
     return CompiledPIDF(controller, law, np.zeros((3, n_joint)), np.zeros(1, np.int64))
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def clip(x, lo, hi):
+    """numpy.clip of one float, with its semantics: NaN passes, min(max(x, lo), hi) as
+    ``x > lo ? x : lo`` then ``< hi``."""
+    if not np.isnan(x) and not x > lo:
+        x = lo
+    if not np.isnan(x) and not x < hi:
+        x = hi
+    return x
+
+
 @numba.njit(cache=True, error_model="numpy")
 def reference_at(t, time, q, out):
     """controllers.reference.JointReference.reference(t) into ``out``, the same arithmetic."""
@@ -150,15 +161,15 @@ def pidf_command(t, q_seen, p_seen, law, state, started, ref, ff, u):
         deriv[j] += alpha * (raw - deriv[j])
         last_err[j] = err
         integral[j] += err * dt
-        integral[j] = min(max(integral[j], -limit[j]), limit[j])
+        integral[j] = clip(integral[j], -limit[j], limit[j])
         e = kp[j] * err + kd[j] * deriv[j] + ki[j] * integral[j]
         d = p_seen[2 * j] - p_seen[2 * j + 1]
         if kind == MODEL_BASED_LAW:  # eq. 17: u = null +- (e + k_F (d^ - d))
             v = e + kf[j] * ((ff[j] - d) / BAR)
         else:  # eq. 15: u = null +- (e - k_F d)
             v = e - kf[j] * (d / BAR)
-        u[2 * j] = min(max(null[2 * j] + v, COMMAND_MIN_V), COMMAND_MAX_V)
-        u[2 * j + 1] = min(max(null[2 * j + 1] - v, COMMAND_MIN_V), COMMAND_MAX_V)
+        u[2 * j] = clip(null[2 * j] + v, COMMAND_MIN_V, COMMAND_MAX_V)
+        u[2 * j + 1] = clip(null[2 * j + 1] - v, COMMAND_MIN_V, COMMAND_MAX_V)
 
 
 @numba.njit(cache=True, error_model="numpy")
