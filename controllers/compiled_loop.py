@@ -12,7 +12,9 @@ arm2's ten physics steps.  Here each period is one pass of a compiled loop over 
                feedforward table interpolated as numpy.interp does
     command    pneumatics.command_kernel.command_step (clip, hysteresis, valve areas)
     record     the row written into preallocated arrays
-    physics    pneumatics.kernel.physics_steps over the period
+    physics    pneumatics.kernel.period_steps over the period; its last step's pressures
+               wait for the next period's first mj_step1 (period_start), which computes the
+               actuator lengths anyway, instead of a kinematics pass of their own
 
 The readable reference is the Python path (pneumatics/runner.py with controllers/pid.py and
 controllers/model_based.py): the same arithmetic in the same order, so the two recordings are
@@ -28,7 +30,7 @@ import numba
 import numpy as np
 
 from pneumatics.command_kernel import OK, CLIPPED, command_step
-from pneumatics.kernel import physics_steps
+from pneumatics.kernel import period_start, period_steps
 
 from .model_based import ModelBasedPIDF, feedforward_table
 from .pid import BAR, COMMAND_MAX_V, COMMAND_MIN_V, PIDF
@@ -193,7 +195,10 @@ def run_rows(k0, k1, n_rows, n_sub, t0, rate_hz, average, noisy, noise, angle_sd
     q_seen, qd, p_seen = np.empty(n_j), np.empty(n_j), np.empty(n_ch)
     ref, ff, u = np.empty(n_j), np.empty(n_j), np.empty(n_ch)
     status = OK
+    pending = False  # the last period's pressures wait for this period's mj_step1 (period_start)
     for k in range(k0, k1):
+        if pending:
+            period_start(*step_args)
         if average and k > 0:  # Simulation.take_mean: the sums hold this period's n_sub steps
             for j in range(n_j):
                 q_seen[j] = sums[n_ch + qadr[j]] / n_sub + q_off[j]
@@ -231,5 +236,9 @@ def run_rows(k0, k1, n_rows, n_sub, t0, rate_hz, average, noisy, noise, angle_sd
             rec_force[k, j] = aa * pressure[2 * j] - ab * pressure[2 * j + 1] - (aa - ab) * room
         rec_ref[k] = ref
         if k < n_rows - 1:
-            physics_steps(n_sub, *step_args)
+            # synchronous at the end of the run and of these rows (the caller's view), else the
+            # next row's mj_step1 finishes the period
+            catch_up = k + 1 == n_rows - 1 or k + 1 == k1
+            period_steps(n_sub, pending, catch_up, *step_args)
+            pending = not catch_up
     return k1, status

@@ -259,16 +259,41 @@ def physics_steps(n, fns, model_addr, data_addr, p, areas, prev_length, length, 
     new instants into ``acc`` (n_ch+nq+nv,), for sensor averaging over a control period
     (paper 002 §II).
     """
+    period_steps(n, False, True, fns, model_addr, data_addr, p, areas, prev_length, length, ctrl, act, ch,
+                 glob, qpos, qvel, acc, qfrc_applied, fric)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def period_steps(n, step1_done, catch_up, fns, model_addr, data_addr, p, areas, prev_length, length, ctrl,
+                 act, ch, glob, qpos, qvel, acc, qfrc_applied, fric):
+    """:func:`physics_steps`, for a loop that stays compiled from one control period to the next.
+
+    ``step1_done``: the first step's mj_step1 and the fluid update before it were done by
+    :func:`period_start`.  ``catch_up`` False leaves the last step's pressures to the next
+    period's :func:`period_start` instead of computing the kinematics twice (once here, once in
+    the next mj_step1: about a third of an mj_step); p, q, qd are then synchronous only after it.
+    """
     for k in range(n):
-        call_mujoco(fns[STEP1], model_addr, data_addr)
+        if not (k == 0 and step1_done):
+            call_mujoco(fns[STEP1], model_addr, data_addr)
         _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc,
                           qfrc_applied, fric)
         call_mujoco(fns[STEP2], model_addr, data_addr)
-    # catch up: actuator lengths at the new state, then the last step's pressures
-    call_mujoco(fns[KINEMATICS], model_addr, data_addr)
-    call_mujoco(fns[COM_POS], model_addr, data_addr)
-    call_mujoco(fns[TENDON], model_addr, data_addr)
-    call_mujoco(fns[TRANSMISSION], model_addr, data_addr)
+    if catch_up:  # actuator lengths at the new state, then the last step's pressures
+        call_mujoco(fns[KINEMATICS], model_addr, data_addr)
+        call_mujoco(fns[COM_POS], model_addr, data_addr)
+        call_mujoco(fns[TENDON], model_addr, data_addr)
+        call_mujoco(fns[TRANSMISSION], model_addr, data_addr)
+        _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def period_start(fns, model_addr, data_addr, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel,
+                 acc, qfrc_applied, fric):
+    """After ``period_steps(..., catch_up=False)``: the next step's mj_step1 (which computes the
+    actuator lengths the catch-up would), then the last step's pressures, forces and sensor sums,
+    exactly as the catch-up makes them.  Follow with ``period_steps(..., step1_done=True, ...)``."""
+    call_mujoco(fns[STEP1], model_addr, data_addr)
     _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc)
 
 
