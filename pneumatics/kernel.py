@@ -49,9 +49,14 @@ def _unit_flow(p_up, p_down, glob):
     if r <= rl:
         e = math.exp(math.log(r) / k)
         g = e * e - r * e
-        psi = math.sqrt(g) if g > 0.0 else 0.0
+        if g > 1e-300:  # psi and the derivative's sqrt(max(g, 1e-300)) are one root
+            psi = math.sqrt(g)
+            root = psi
+        else:
+            psi = math.sqrt(g) if g > 0.0 else 0.0
+            root = math.sqrt(1e-300)
         dg = (2.0 / k) * e * e / r - ((k + 1.0) / k) * e
-        dpsi = dg / (2.0 * math.sqrt(max(g, 1e-300)))
+        dpsi = dg / (2.0 * root)
         return c_sub * p_up * psi, c_sub * (psi - r * dpsi), c_sub * dpsi
     slope = glob[11]
     return slope * (p_up - p_down), slope, -slope
@@ -96,9 +101,16 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
     its end, indexed by each actuator's MuJoCo id (act[:, 4]); act, ch, glob as in the
     module docstring.
     """
+    integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, np.empty(ch.shape[0]))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extra):
+    """:func:`integrate_chambers` with ``m_extra`` (n_ch,) a scratch array for the leak flows:
+    the physics loop allocates it once per call, not once per step."""
     dt = glob[10]
     n_ch = ch.shape[0]
-    m_extra = np.zeros(n_ch)
+    m_extra[:] = 0.0
     for i in range(n_ch):  # leaks, explicit over the step (their time constants >> dt)
         if ch[i, 12] > 0.0:
             m_x, _, _ = orifice_flow_compiled(ch[i, 12], p[i], glob[9], glob)
@@ -149,7 +161,13 @@ def write_friction(qvel, qfrc_applied, fric):
 def fluid_step_fast(p, areas, prev_length, length, ctrl, act, ch, glob):
     """Integrate the step that just ended (prev_length -> length), write the forces of the new
     pressures into ``ctrl`` and remember ``length`` in ``prev_length``."""
-    integrate_chambers(p, areas, prev_length, length, act, ch, glob)
+    fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, np.empty(ch.shape[0]))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, m_extra):
+    """:func:`fluid_step_fast` with a scratch array (n_ch,) for the leak flows."""
+    integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extra)
     write_forces(p, ctrl, act, glob)
     for j in range(act.shape[0]):
         prev_length[j] = length[int(act[j, 4])]
@@ -273,18 +291,19 @@ def period_steps(n, step1_done, catch_up, fns, model_addr, data_addr, p, areas, 
     period's :func:`period_start` instead of computing the kinematics twice (once here, once in
     the next mj_step1: about a third of an mj_step); p, q, qd are then synchronous only after it.
     """
+    m_extra = np.empty(p.size)
     for k in range(n):
         if not (k == 0 and step1_done):
             call_mujoco(fns[STEP1], model_addr, data_addr)
         _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc,
-                          qfrc_applied, fric)
+                          qfrc_applied, fric, m_extra)
         call_mujoco(fns[STEP2], model_addr, data_addr)
     if catch_up:  # actuator lengths at the new state, then the last step's pressures
         call_mujoco(fns[KINEMATICS], model_addr, data_addr)
         call_mujoco(fns[COM_POS], model_addr, data_addr)
         call_mujoco(fns[TENDON], model_addr, data_addr)
         call_mujoco(fns[TRANSMISSION], model_addr, data_addr)
-        _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc)
+        _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, m_extra)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -294,15 +313,16 @@ def period_start(fns, model_addr, data_addr, p, areas, prev_length, length, ctrl
     actuator lengths the catch-up would), then the last step's pressures, forces and sensor sums,
     exactly as the catch-up makes them.  Follow with ``period_steps(..., step1_done=True, ...)``."""
     call_mujoco(fns[STEP1], model_addr, data_addr)
-    _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc)
+    _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, np.empty(p.size))
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, qfrc_applied, fric):
+def _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, qfrc_applied, fric,
+                      m_extra):
     """Between mj_step1 and mj_step2 of step k: integrate the fluid over the step that ended
     (none before the first), accumulate the sensors, write forces and friction."""
     if k > 0:
-        integrate_chambers(p, areas, prev_length, length, act, ch, glob)
+        integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extra)
         for j in range(act.shape[0]):
             prev_length[j] = length[int(act[j, 4])]
         _accumulate(acc, p, qpos, qvel)
@@ -311,9 +331,9 @@ def _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpo
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc):
+def _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, m_extra):
     """After the last step's kinematics: its fluid step, forces, and sensor accumulation."""
-    fluid_step_fast(p, areas, prev_length, length, ctrl, act, ch, glob)
+    fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, m_extra)
     _accumulate(acc, p, qpos, qvel)
 
 
