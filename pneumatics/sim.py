@@ -125,6 +125,7 @@ class Simulation:
         self._thermal, self._conductance = self.effects.heat_arrays(robot)
         self._thermal_any = bool(self._thermal.any())
         self._compiled_args = None  # physics_steps' arguments, built at the first step
+        self._step_call = None  # step_call.StepCall of them
         #: physics steps run in one compiled loop (:func:`pneumatics.kernel.physics_steps`)
         self.compiled_steps = kernel == "fast" and MUJOCO_FUNCTIONS is not None and not self._thermal_any
         self.gas_temperature = np.full(robot.tables.n_chambers, robot.tables.gas.temperature_k)
@@ -300,7 +301,13 @@ class Simulation:
         m, d = self.model, self.data
         self._n_summed += n
         if self.compiled_steps:
-            physics_steps(n, *self.physics_step_args())
+            args = self.physics_step_args()
+            call = self._step_call
+            if call is None or call.args is not args:
+                from .step_call import StepCall  # compiles (or loads) the C entry point at the first step
+
+                call = self._step_call = StepCall(args)
+            call(n)
             return
         for k in range(n):
             mujoco.mj_step1(m, d)
