@@ -126,19 +126,21 @@ def integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extr
             m_ab = act[j, 6] * (p[2 * j] - p[2 * j + 1]) * (p[2 * j] + p[2 * j + 1]) / (2.0 * glob[9])
             m_extra[2 * j] -= m_ab
             m_extra[2 * j + 1] += m_ab
-    for i in range(n_ch):
-        j = int(ch[i, 3])
-        stroke = act[j, 2]
-        x0 = min(max(prev_length[j] - act[j, 3], 0.0), stroke)
-        x1 = min(max(length[int(act[j, 4])] - act[j, 3], 0.0), stroke)
-        x_mid = 0.5 * (x0 + x1)
-        if ch[i, 2] > 0.5:
-            volume = ch[i, 1] + ch[i, 0] * x_mid
-            vrate = ch[i, 0] * (x1 - x0) / dt
-        else:
-            volume = ch[i, 1] + ch[i, 0] * (stroke - x_mid)
-            vrate = -ch[i, 0] * (x1 - x0) / dt
-        p[i] = _adaptive_ros2(p[i], volume, vrate, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
+    # chambers two at a time: their whole steps (the usual case) are independent chains of
+    # log/exp/sqrt the processor can overlap; a chamber whose whole step fails restarts in
+    # _adaptive_ros2, which repeats that step exactly before halving
+    for i in range(0, n_ch - 1, 2):
+        v0, r0 = _chamber_volume(i, prev_length, length, act, ch, dt)
+        v1, r1 = _chamber_volume(i + 1, prev_length, length, act, ch, dt)
+        q0, ok0 = _ros2_whole_step(p[i], v0, r0, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
+        q1, ok1 = _ros2_whole_step(p[i + 1], v1, r1, areas[i + 1, 0], areas[i + 1, 1], glob, dt, m_extra[i + 1])
+        p[i] = q0 if ok0 else _adaptive_ros2(p[i], v0, r0, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
+        p[i + 1] = q1 if ok1 else _adaptive_ros2(p[i + 1], v1, r1, areas[i + 1, 0], areas[i + 1, 1], glob, dt,
+                                                 m_extra[i + 1])
+    if n_ch % 2:
+        i = n_ch - 1
+        v0, r0 = _chamber_volume(i, prev_length, length, act, ch, dt)
+        p[i] = _adaptive_ros2(p[i], v0, r0, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
     if glob[12] > 0.0:  # supply_droop: the line drops pressure with the total supply flow
         total = 0.0
         for i in range(n_ch):
@@ -171,6 +173,33 @@ def fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, m_extra)
     write_forces(p, ctrl, act, glob)
     for j in range(act.shape[0]):
         prev_length[j] = length[int(act[j, 4])]
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _chamber_volume(i, prev_length, length, act, ch, dt):
+    """(volume [m^3] at mid-step, its rate [m^3/s]) of chamber i (chamber.chamber_geometry)."""
+    j = int(ch[i, 3])
+    stroke = act[j, 2]
+    x0 = min(max(prev_length[j] - act[j, 3], 0.0), stroke)
+    x1 = min(max(length[int(act[j, 4])] - act[j, 3], 0.0), stroke)
+    x_mid = 0.5 * (x0 + x1)
+    if ch[i, 2] > 0.5:
+        return ch[i, 1] + ch[i, 0] * x_mid, ch[i, 0] * (x1 - x0) / dt
+    return ch[i, 1] + ch[i, 0] * (stroke - x_mid), -ch[i, 0] * (x1 - x0) / dt
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _ros2_whole_step(p0, volume, vrate, a_s, a_e, glob, dt, m_extra):
+    """(pressure, accepted) of the first try of _adaptive_ros2: one ROS2 step over dt."""
+    f0, jac = _rate(p0, volume, vrate, a_s, a_e, glob, m_extra)
+    denom = 1.0 - GAMMA * dt * jac
+    k1 = f0 / denom
+    f1, _j = _rate(p0 + dt * k1, volume, vrate, a_s, a_e, glob, m_extra)
+    k2 = (f1 - 2.0 * k1) / denom
+    q_new = p0 + 1.5 * dt * k1 + 0.5 * dt * k2
+    ok = (math.isfinite(q_new) and abs(q_new - p0) <= MAX_REL_CHANGE * p0
+          and 0.5 * dt * abs(k1 + k2) <= ERR_TOL * p0)
+    return q_new, ok
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
