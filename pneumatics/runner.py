@@ -10,8 +10,7 @@ The loop below is the readable reference.  A built-in controller may also offer
 ``compiled_law(n_joint)``, returning None or an object with ``run_rows(k0, k1, run, record)``
 and ``finish()`` (:class:`controllers.compiled_loop.CompiledPIDF`) that runs whole control
 periods of this very loop in compiled code, bit for bit the same recording; :func:`run` takes
-it whenever the simulation allows (compiled kernel, no valve lag or line delay, no heat
-transfer, no logger) unless ``compiled=False``.
+it whenever the simulation allows (:func:`compiled_law`) unless ``compiled=False``.
 """
 from __future__ import annotations
 
@@ -141,9 +140,13 @@ COMPILED_ROWS = 100
 
 
 def compiled_law(sim: Simulation, controller, n_joint: int, logger=None):
-    """``controller.compiled_law(n_joint)`` where this simulation can run it compiled, else None."""
+    """``controller.compiled_law(n_joint)`` where this simulation can run it compiled, else None.
+
+    Not for a subclass of Simulation (its own forces, observe or step would be bypassed), a
+    logger (it looks at every period), the numpy kernel, heat transfer, valve lag or line delay."""
     offer = getattr(controller, "compiled_law", None)
-    if offer is None or logger is not None or not sim.compiled_steps or not sim.valve_dynamics_free:
+    if (offer is None or logger is not None or type(sim) is not Simulation or not sim.compiled_steps
+            or not sim.valve_dynamics_free):
         return None
     return offer(n_joint)
 

@@ -150,3 +150,9 @@ def test_only_the_built_in_laws_on_a_joint_reference_are_compiled(robots):
     assert compiled_law(Simulation(robot, kernel="reference"), pidf, 2) is None
     lagging = Simulation(robot, effects=EffectSet(valve_lag_s={"shoulder.a": 0.005}))
     assert compiled_law(lagging, pidf, 2) is None
+
+    class Braked(Simulation):  # a simulation of the user's own: its methods must run
+        def forces(self):
+            return super().forces() - 100.0 * self.data.qvel
+
+    assert compiled_law(Braked(robot), pidf, 2) is None
