@@ -182,7 +182,8 @@ def run_rows(k0, k1, n_rows, n_sub, t0, rate_hz, average, noisy, noise, angle_sd
     last row of the run) the period's physics steps.
 
     ``noisy``: add ``noise`` (k1 - k0, n_joint + n_ch), standard normals of these rows (the
-    joints' before the chambers'), times ``angle_sd`` [rad] and ``pressure_sd`` [Pa]; ``sensors``: (qadr, dadr, q_offset, p_offset) of Simulation.sensor_maps;
+    joints' before the chambers'), times ``angle_sd`` [rad] and ``pressure_sd`` [Pa];
+    ``sensors``: (qadr, dadr, q_offset, p_offset) of Simulation.sensor_maps;
     ``step_args``: Simulation.physics_step_args; ``command_args``: Simulation.command_step_args.
     Returns (rows done, status): k1 and OK or CLIPPED, or the row whose commands
     command_step refused (NOT_FINITE, UNIT_SLIP; the commands left in ``rec_u`` of that row)

@@ -40,7 +40,7 @@ from .effects.valve_leak import leak_areas
 from . import arguments
 from .errors import ArgumentError, PneumasimError
 from .command_kernel import CLIPPED, OK, command_step
-from .kernel import MUJOCO_FUNCTIONS, fluid_step_fast, pack, physics_steps
+from .kernel import MUJOCO_FUNCTIONS, fluid_step_fast, pack
 from .robot import Robot
 from .tables import valve_areas_table
 

@@ -14,7 +14,6 @@ import ctypes
 
 import numba
 import numpy as np
-from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
