@@ -127,6 +127,13 @@ class PIDF:
         np.clip(self._integral, -lim, lim, out=self._integral)
         return kp * err + kd * self._deriv + ki * self._integral
 
+    def compiled_law(self, n_joint: int):
+        """This law in compiled form for :func:`pneumatics.runner.run` (None where it cannot be:
+        :func:`controllers.compiled_loop.compile_controller`)."""
+        from .compiled_loop import compile_controller  # imports this module
+
+        return compile_controller(self, n_joint)
+
     def kf(self, n_joint: int) -> np.ndarray:
         return np.broadcast_to(np.asarray(self.cfg.kf_v_per_bar, float), (n_joint,))
 

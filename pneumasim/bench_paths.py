@@ -12,7 +12,8 @@ interleaved, best of ``repeats`` (noise only ever adds time):
 * ``full_open_loop``: :meth:`Simulation.step` with the valve commands of a recorded PIDF run
   set every control period (100 Hz), as a replay of a recording drives the simulator;
 * ``full_closed_loop``: :func:`pneumatics.runner.run` under the shipped PIDF at 100 Hz (DAQ
-  averaging, sensor noise, the controller in Python, the recording kept);
+  averaging, sensor noise, the controller, the recording kept), on the compiled closed loop
+  the built-in controllers get (:mod:`controllers.compiled_loop`);
 * ``full_doctor_replay`` (arm2): the doctor's chamber replays (0.3 s windows restarted from
   the measured pressures, driven by the measured motion and commands) over a recording,
   reported as compute seconds per second of data.

@@ -23,6 +23,9 @@ import math
 
 import numba
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
 
 from .medium import flow_function
 
@@ -46,9 +49,14 @@ def _unit_flow(p_up, p_down, glob):
     if r <= rl:
         e = math.exp(math.log(r) / k)
         g = e * e - r * e
-        psi = math.sqrt(g) if g > 0.0 else 0.0
+        if g > 1e-300:  # psi and the derivative's sqrt(max(g, 1e-300)) are one root
+            psi = math.sqrt(g)
+            root = psi
+        else:
+            psi = math.sqrt(g) if g > 0.0 else 0.0
+            root = math.sqrt(1e-300)
         dg = (2.0 / k) * e * e / r - ((k + 1.0) / k) * e
-        dpsi = dg / (2.0 * math.sqrt(max(g, 1e-300)))
+        dpsi = dg / (2.0 * root)
         return c_sub * p_up * psi, c_sub * (psi - r * dpsi), c_sub * dpsi
     slope = glob[11]
     return slope * (p_up - p_down), slope, -slope
@@ -93,9 +101,16 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
     its end, indexed by each actuator's MuJoCo id (act[:, 4]); act, ch, glob as in the
     module docstring.
     """
+    integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, np.empty(ch.shape[0]))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extra):
+    """:func:`integrate_chambers` with ``m_extra`` (n_ch,) a scratch array for the leak flows:
+    the physics loop allocates it once per call, not once per step."""
     dt = glob[10]
     n_ch = ch.shape[0]
-    m_extra = np.zeros(n_ch)
+    m_extra[:] = 0.0
     for i in range(n_ch):  # leaks, explicit over the step (their time constants >> dt)
         if ch[i, 12] > 0.0:
             m_x, _, _ = orifice_flow_compiled(ch[i, 12], p[i], glob[9], glob)
@@ -111,19 +126,21 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
             m_ab = act[j, 6] * (p[2 * j] - p[2 * j + 1]) * (p[2 * j] + p[2 * j + 1]) / (2.0 * glob[9])
             m_extra[2 * j] -= m_ab
             m_extra[2 * j + 1] += m_ab
-    for i in range(n_ch):
-        j = int(ch[i, 3])
-        stroke = act[j, 2]
-        x0 = min(max(prev_length[j] - act[j, 3], 0.0), stroke)
-        x1 = min(max(length[int(act[j, 4])] - act[j, 3], 0.0), stroke)
-        x_mid = 0.5 * (x0 + x1)
-        if ch[i, 2] > 0.5:
-            volume = ch[i, 1] + ch[i, 0] * x_mid
-            vrate = ch[i, 0] * (x1 - x0) / dt
-        else:
-            volume = ch[i, 1] + ch[i, 0] * (stroke - x_mid)
-            vrate = -ch[i, 0] * (x1 - x0) / dt
-        p[i] = _adaptive_ros2(p[i], volume, vrate, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
+    # chambers two at a time: their whole steps (the usual case) are independent chains of
+    # log/exp/sqrt the processor can overlap; a chamber whose whole step fails restarts in
+    # _adaptive_ros2, which repeats that step exactly before halving
+    for i in range(0, n_ch - 1, 2):
+        v0, r0 = _chamber_volume(i, prev_length, length, act, ch, dt)
+        v1, r1 = _chamber_volume(i + 1, prev_length, length, act, ch, dt)
+        q0, ok0 = _ros2_whole_step(p[i], v0, r0, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
+        q1, ok1 = _ros2_whole_step(p[i + 1], v1, r1, areas[i + 1, 0], areas[i + 1, 1], glob, dt, m_extra[i + 1])
+        p[i] = q0 if ok0 else _adaptive_ros2(p[i], v0, r0, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
+        p[i + 1] = q1 if ok1 else _adaptive_ros2(p[i + 1], v1, r1, areas[i + 1, 0], areas[i + 1, 1], glob, dt,
+                                                 m_extra[i + 1])
+    if n_ch % 2:
+        i = n_ch - 1
+        v0, r0 = _chamber_volume(i, prev_length, length, act, ch, dt)
+        p[i] = _adaptive_ros2(p[i], v0, r0, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
     if glob[12] > 0.0:  # supply_droop: the line drops pressure with the total supply flow
         total = 0.0
         for i in range(n_ch):
@@ -146,10 +163,43 @@ def write_friction(qvel, qfrc_applied, fric):
 def fluid_step_fast(p, areas, prev_length, length, ctrl, act, ch, glob):
     """Integrate the step that just ended (prev_length -> length), write the forces of the new
     pressures into ``ctrl`` and remember ``length`` in ``prev_length``."""
-    integrate_chambers(p, areas, prev_length, length, act, ch, glob)
+    fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, np.empty(ch.shape[0]))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, m_extra):
+    """:func:`fluid_step_fast` with a scratch array (n_ch,) for the leak flows."""
+    integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extra)
     write_forces(p, ctrl, act, glob)
     for j in range(act.shape[0]):
         prev_length[j] = length[int(act[j, 4])]
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _chamber_volume(i, prev_length, length, act, ch, dt):
+    """(volume [m^3] at mid-step, its rate [m^3/s]) of chamber i (chamber.chamber_geometry)."""
+    j = int(ch[i, 3])
+    stroke = act[j, 2]
+    x0 = min(max(prev_length[j] - act[j, 3], 0.0), stroke)
+    x1 = min(max(length[int(act[j, 4])] - act[j, 3], 0.0), stroke)
+    x_mid = 0.5 * (x0 + x1)
+    if ch[i, 2] > 0.5:
+        return ch[i, 1] + ch[i, 0] * x_mid, ch[i, 0] * (x1 - x0) / dt
+    return ch[i, 1] + ch[i, 0] * (stroke - x_mid), -ch[i, 0] * (x1 - x0) / dt
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _ros2_whole_step(p0, volume, vrate, a_s, a_e, glob, dt, m_extra):
+    """(pressure, accepted) of the first try of _adaptive_ros2: one ROS2 step over dt."""
+    f0, jac = _rate(p0, volume, vrate, a_s, a_e, glob, m_extra)
+    denom = 1.0 - GAMMA * dt * jac
+    k1 = f0 / denom
+    f1, _j = _rate(p0 + dt * k1, volume, vrate, a_s, a_e, glob, m_extra)
+    k2 = (f1 - 2.0 * k1) / denom
+    q_new = p0 + 1.5 * dt * k1 + 0.5 * dt * k2
+    ok = (math.isfinite(q_new) and abs(q_new - p0) <= MAX_REL_CHANGE * p0
+          and 0.5 * dt * abs(k1 + k2) <= ERR_TOL * p0)
+    return q_new, ok
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -202,11 +252,18 @@ def pack(tables, ctrl_index, dt):
 
 
 # -- the whole physics loop, compiled -------------------------------------------------------
-# mj_step1 / mj_step2 are called straight from compiled code through ctypes, so n steps run
-# without returning to Python (a Python-level loop costs ~1 us a step, a third of a 2-DOF
-# mj_step).  Where MuJoCo's shared library cannot be found, Simulation falls back to a
-# Python loop around the same kernel.
-def _load_mujoco_functions():
+# mj_step1 / mj_step2 are called straight from compiled code, so n steps run without returning
+# to Python (a Python-level loop costs ~1 us a step, a third of a 2-DOF mj_step).  The MuJoCo
+# functions' addresses are an argument (MUJOCO_FUNCTIONS), called through a pointer
+# (call_mujoco), not constants baked into the machine code: the loop and every compiled caller
+# (controllers.compiled_loop) are cached on disk like the rest of the kernel.  Where MuJoCo's
+# shared library cannot be found, Simulation falls back to a Python loop around the kernel.
+MUJOCO_FUNCTION_NAMES = ("mj_step1", "mj_step2", "mj_kinematics", "mj_comPos", "mj_tendon", "mj_transmission")
+STEP1, STEP2, KINEMATICS, COM_POS, TENDON, TRANSMISSION = range(6)
+
+
+def _mujoco_function_addresses():
+    """(6,) uint64 addresses of MUJOCO_FUNCTION_NAMES in this process's libmujoco, or None."""
     import ctypes
     import glob as _glob
     import os
@@ -217,53 +274,84 @@ def _load_mujoco_functions():
     if not libs:
         return None
     lib = ctypes.CDLL(libs[0])
-    fns = []
-    for name in ("mj_step1", "mj_step2", "mj_kinematics", "mj_comPos", "mj_tendon", "mj_transmission"):
-        fn = getattr(lib, name)
-        fn.argtypes = [ctypes.c_uint64, ctypes.c_uint64]  # (const mjModel*, mjData*)
-        fn.restype = None
-        fns.append(fn)
-    return fns
+    return np.array([ctypes.cast(getattr(lib, name), ctypes.c_void_p).value for name in MUJOCO_FUNCTION_NAMES],
+                    np.uint64)
 
 
-_FUNCTIONS = _load_mujoco_functions()
+#: addresses of MUJOCO_FUNCTION_NAMES (None where libmujoco.so is not found)
+MUJOCO_FUNCTIONS = _mujoco_function_addresses()
 
-if _FUNCTIONS is not None:
-    _mj_step1, _mj_step2, _mj_kinematics, _mj_comPos, _mj_tendon, _mj_transmission = _FUNCTIONS
 
-    @numba.njit(cache=False, error_model="numpy")
-    def run_steps_compiled(n, model_addr, data_addr, p, areas, prev_length, length, ctrl, act, ch,
-                           glob, qpos, qvel, acc, qfrc_applied, fric):
-        """n physics steps without leaving compiled code (see Simulation.step for the scheme).
+@intrinsic
+def call_mujoco(typingctx, function_address, model_address, data_address):
+    """Call ``void f(const mjModel*, mjData*)`` at ``function_address`` (all three uint64)."""
+    sig = types.void(types.uint64, types.uint64, types.uint64)
 
-        Adds p (n_ch,), qpos (nq,) and qvel (nv,) at each of the n new instants into ``acc``
-        (n_ch+nq+nv,), for sensor averaging over a control period (paper 002 §II).
+    def codegen(context, builder, signature, args):
+        address, m, d = args
+        fnty = ir.FunctionType(ir.VoidType(), [ir.IntType(64), ir.IntType(64)])
+        builder.call(builder.inttoptr(address, fnty.as_pointer()), [m, d])
+        return context.get_dummy_value()
 
-        Only this loop is compiled in every process (the MuJoCo function addresses it calls
-        change from one process to the next, so it cannot be cached); the fluid work is in the
-        cached functions it calls, which keeps a new process's first step at ~1 s, not ~25 s.
-        """
-        for k in range(n):
-            _mj_step1(model_addr, data_addr)
-            _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc,
-                              qfrc_applied, fric)
-            _mj_step2(model_addr, data_addr)
-        # catch up: actuator lengths at the new state, then the last step's pressures
-        _mj_kinematics(model_addr, data_addr)
-        _mj_comPos(model_addr, data_addr)
-        _mj_tendon(model_addr, data_addr)
-        _mj_transmission(model_addr, data_addr)
-        _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc)
-else:  # pragma: no cover - platforms without libmujoco.so
-    run_steps_compiled = None
+    return sig, codegen
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, qfrc_applied, fric):
+def physics_steps(n, fns, model_addr, data_addr, p, areas, prev_length, length, ctrl, act, ch,
+                  glob, qpos, qvel, acc, qfrc_applied, fric):
+    """n physics steps without leaving compiled code (see Simulation.step for the scheme).
+
+    ``fns``: MUJOCO_FUNCTIONS; ``model_addr`` / ``data_addr``: ``MjModel._address`` and
+    ``MjData._address`` (uint64).  Adds p (n_ch,), qpos (nq,) and qvel (nv,) at each of the n
+    new instants into ``acc`` (n_ch+nq+nv,), for sensor averaging over a control period
+    (paper 002 §II).
+    """
+    period_steps(n, False, True, fns, model_addr, data_addr, p, areas, prev_length, length, ctrl, act, ch,
+                 glob, qpos, qvel, acc, qfrc_applied, fric)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def period_steps(n, step1_done, catch_up, fns, model_addr, data_addr, p, areas, prev_length, length, ctrl,
+                 act, ch, glob, qpos, qvel, acc, qfrc_applied, fric):
+    """:func:`physics_steps`, for a loop that stays compiled from one control period to the next.
+
+    ``step1_done``: the first step's mj_step1 and the fluid update before it were done by
+    :func:`period_start`.  ``catch_up`` False leaves the last step's pressures to the next
+    period's :func:`period_start` instead of computing the kinematics twice (once here, once in
+    the next mj_step1: about a third of an mj_step); p, q, qd are then synchronous only after it.
+    """
+    m_extra = np.empty(p.size)
+    for k in range(n):
+        if not (k == 0 and step1_done):
+            call_mujoco(fns[STEP1], model_addr, data_addr)
+        _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc,
+                          qfrc_applied, fric, m_extra)
+        call_mujoco(fns[STEP2], model_addr, data_addr)
+    if catch_up:  # actuator lengths at the new state, then the last step's pressures
+        call_mujoco(fns[KINEMATICS], model_addr, data_addr)
+        call_mujoco(fns[COM_POS], model_addr, data_addr)
+        call_mujoco(fns[TENDON], model_addr, data_addr)
+        call_mujoco(fns[TRANSMISSION], model_addr, data_addr)
+        _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, m_extra)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def period_start(fns, model_addr, data_addr, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel,
+                 acc, qfrc_applied, fric):
+    """After ``period_steps(..., catch_up=False)``: the next step's mj_step1 (which computes the
+    actuator lengths the catch-up would), then the last step's pressures, forces and sensor sums,
+    exactly as the catch-up makes them.  Follow with ``period_steps(..., step1_done=True, ...)``."""
+    call_mujoco(fns[STEP1], model_addr, data_addr)
+    _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, np.empty(p.size))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, qfrc_applied, fric,
+                      m_extra):
     """Between mj_step1 and mj_step2 of step k: integrate the fluid over the step that ended
     (none before the first), accumulate the sensors, write forces and friction."""
     if k > 0:
-        integrate_chambers(p, areas, prev_length, length, act, ch, glob)
+        integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extra)
         for j in range(act.shape[0]):
             prev_length[j] = length[int(act[j, 4])]
         _accumulate(acc, p, qpos, qvel)
@@ -272,9 +360,9 @@ def _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpo
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc):
+def _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, m_extra):
     """After the last step's kinematics: its fluid step, forces, and sensor accumulation."""
-    fluid_step_fast(p, areas, prev_length, length, ctrl, act, ch, glob)
+    fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, m_extra)
     _accumulate(acc, p, qpos, qvel)
 
 

@@ -40,7 +40,7 @@ from .effects.valve_leak import leak_areas
 from . import arguments
 from .errors import ArgumentError, PneumasimError
 from .command_kernel import CLIPPED, OK, command_step
-from .kernel import fluid_step_fast, pack, run_steps_compiled
+from .kernel import MUJOCO_FUNCTIONS, fluid_step_fast, pack
 from .robot import Robot
 from .tables import valve_areas_table
 
@@ -124,7 +124,10 @@ class Simulation:
         # heat_transfer: those chambers carry a gas temperature [K] and step in Python
         self._thermal, self._conductance = self.effects.heat_arrays(robot)
         self._thermal_any = bool(self._thermal.any())
-        self._compiled_args = None  # run_steps_compiled's arguments, built at the first step
+        self._compiled_args = None  # physics_steps' arguments, built at the first step
+        self._step_call = None  # step_call.StepCall of them
+        #: physics steps run in one compiled loop (:func:`pneumatics.kernel.physics_steps`)
+        self.compiled_steps = kernel == "fast" and MUJOCO_FUNCTIONS is not None and not self._thermal_any
         self.gas_temperature = np.full(robot.tables.n_chambers, robot.tables.gas.temperature_k)
         self.spool = np.zeros(self.tables.n_chambers)  # command the spool follows (hysteresis)
         self.spool_position = np.zeros(self.tables.n_chambers)  # the spool after lag and line delay
@@ -215,10 +218,7 @@ class Simulation:
             raise ArgumentError(f"set_command(command_v): expected shape {self.command.shape} "
                                 f"(one per chamber), got {u.shape}")
         if self.kernel == "fast" and not self._valve_dynamics:
-            lo, hi = COMMAND_RANGE_V
-            status = command_step(u, lo, hi, COMMAND_SLIP_V, self.command, self.spool, self.spool_position,
-                                  self._hysteresis, self.tables.valve, self._valve_leak, self._valve_leak_exhaust,
-                                  self.effects.valve_leak_width_v, self.areas)
+            status = command_step(u, *self.command_step_args())
             if status == CLIPPED:
                 self._warn_clipped(u)
             if status in (OK, CLIPPED):
@@ -300,16 +300,14 @@ class Simulation:
     def _physics_steps(self, n: int):
         m, d = self.model, self.data
         self._n_summed += n
-        if self.kernel == "fast" and run_steps_compiled is not None and not self._thermal_any:
-            args = self._compiled_args
-            if args is None or args[2] is not self.pressure or args[3] is not self.areas or args[12] is not self.sums:
-                # the loop's arguments, made once: MjData's array views stay valid for its life, and
-                # building them (and MjData's address lookups) every call cost a few us a period
-                act, ch, glob = self._packed
-                args = self._compiled_args = (
-                    m._address, d._address, self.pressure, self.areas, self._prev_length, d.actuator_length,
-                    d.ctrl, act, ch, glob, d.qpos, d.qvel, self.sums, d.qfrc_applied, self._fric)
-            run_steps_compiled(n, *args)
+        if self.compiled_steps:
+            args = self.physics_step_args()
+            call = self._step_call
+            if call is None or call.args is not args:
+                from .step_call import StepCall  # compiles (or loads) the C entry point at the first step
+
+                call = self._step_call = StepCall(args)
+            call(n)
             return
         for k in range(n):
             mujoco.mj_step1(m, d)
@@ -321,6 +319,39 @@ class Simulation:
             mujoco.mj_step2(m, d)
         self.sync()
         self._accumulate()
+
+    def physics_step_args(self) -> tuple:
+        """The arguments of :func:`pneumatics.kernel.physics_steps` after ``n`` for this simulation,
+        made once: MjData's array views stay valid for its life, and building them (and MjData's
+        address lookups) every call cost a few us a period."""
+        args = self._compiled_args
+        if args is None or args[3] is not self.pressure or args[4] is not self.areas or args[13] is not self.sums:
+            m, d = self.model, self.data
+            act, ch, glob = self._packed
+            args = self._compiled_args = (
+                MUJOCO_FUNCTIONS, np.uint64(m._address), np.uint64(d._address), self.pressure, self.areas,
+                self._prev_length, d.actuator_length, d.ctrl, act, ch, glob, d.qpos, d.qvel, self.sums,
+                d.qfrc_applied, self._fric)
+        return args
+
+    def command_step_args(self) -> tuple:
+        """The arguments of :func:`pneumatics.command_kernel.command_step` after the commands, for
+        this simulation's state arrays (only meaningful where ``valve_dynamics_free``)."""
+        lo, hi = COMMAND_RANGE_V
+        return (lo, hi, COMMAND_SLIP_V, self.command, self.spool, self.spool_position, self._hysteresis,
+                self.tables.valve, self._valve_leak, self._valve_leak_exhaust, self.effects.valve_leak_width_v,
+                self.areas)
+
+    @property
+    def valve_dynamics_free(self) -> bool:
+        """Whether a command sets the valve areas at once (no valve lag or line delay moving the
+        spool between commands), so that command_step is the whole of set_command."""
+        return not self._valve_dynamics
+
+    def sensor_maps(self) -> tuple:
+        """(qpos addresses (n_joint,), qvel addresses (n_joint,), angle offsets (n_joint,) [rad],
+        pressure offsets (n_ch,) [Pa]): how :meth:`observe` and :meth:`take_mean` read the state."""
+        return self._qadr, self._dadr, self._q_offset, self._p_offset
 
     def sync(self):
         """Actuator lengths at the current MuJoCo state; integrate the pressures up to it."""
