@@ -46,7 +46,7 @@ PAIRS = (["valve_hysteresis", "coulomb_friction"], ["supply_droop", "force_senso
 def plan(fast: bool):
     """[(seed, [families])], main seconds, held-out seconds."""
     if fast:
-        return [(301, []), (302, ["coulomb_friction"]), (303, ["pressure_sensor_offset"])], 12.0, 8.0
+        return [(301, []), (302, ["coulomb_friction"]), (303, ["pressure_sensor_offset"])], 8.0, 6.0
     cases, seed = [], 3000
     for fam in FAMILIES:
         for _ in range(2):
@@ -55,7 +55,7 @@ def plan(fast: bool):
     cases += [(seed + k, []) for k in range(3)]
     seed += 3
     cases += [(seed + k, list(pair)) for k, pair in enumerate(PAIRS)]
-    return cases, 16.0, 8.0
+    return cases, 8.0, 6.0
 
 
 def judge(truth: dict, report: dict) -> dict:

@@ -15,8 +15,8 @@ family (DESIGN.md name)    law and where it acts (paper 001 unless said)
 ``valve_leak``             worn valve: extra stage-1 clearance G_s and G_r + ``valve_leak_m3_per_pa_s``
                            (supply -> tip node and tip node -> return, §2.3, eqs. 11-12)
 ``piston_leak``            cross-vane leakage R_l + ``vane_leak_m3_per_pa_s`` (eqs. 8-9)
-``line_dynamics``          the supply accumulator's gas lost or added: C_p +
-                           ``accumulator_change_m3_per_pa`` (eq. 7, Table 1's C_p)
+``line_dynamics``          a longer (or softer) passage from the valve to chamber a / b: its oil
+                           volume V_l1 / V_l2 + ``line_volume_extra_{a,b}_m3`` (Table 1, eqs. 8-9)
 ``supply_droop``           the pump's pressure falls with the flow drawn:
                            P = P_pump - ``pump_droop_pa_s_per_m3`` Q_s (Merritt §8)
 ``coulomb_friction``       vane Coulomb friction tau_c + ``coulomb_extra_nm`` (eq. 13)
@@ -48,7 +48,8 @@ class HydraulicEffects:
     null_shift_a: float = 0.0
     valve_leak_m3_per_pa_s: float = 0.0
     vane_leak_m3_per_pa_s: float = 0.0
-    accumulator_change_m3_per_pa: float = 0.0
+    line_volume_extra_a_m3: float = 0.0
+    line_volume_extra_b_m3: float = 0.0
     pump_droop_pa_s_per_m3: float = 0.0
     coulomb_extra_nm: float = 0.0
     viscous_extra_nm_s_per_rad: float = 0.0
@@ -68,18 +69,19 @@ def _section(cfg, name: str, **changes):
 
 def apply_to_cfg(cfg, fx: HydraulicEffects):
     """The ``fluid.toml`` parameters (:class:`~.config.HydraulicCfg`) with the oil-side effects."""
-    h, v, s, line, pw = cfg.hysteresis, cfg.servovalve, cfg.vane, cfg.supply_line, cfg.power
+    h, v, s, pw = cfg.hysteresis, cfg.servovalve, cfg.vane, cfg.power
     k0 = h.k0_a + fx.hysteresis_extra_k0_a
-    accumulator = line.accumulator_m3_per_pa + fx.accumulator_change_m3_per_pa
-    if k0 <= 0 or accumulator < 0:
-        raise ConfigError(f"hydraulic effects: k0 {k0:g} A and accumulator {accumulator:g} m^3/Pa must stay "
-                          "positive (hysteresis_extra_k0_a, accumulator_change_m3_per_pa too negative)")
+    extra_a = s.extra_line_volume_a_m3 + fx.line_volume_extra_a_m3
+    extra_b = s.extra_line_volume_b_m3 + fx.line_volume_extra_b_m3
+    if k0 <= 0 or min(extra_a, extra_b) < 0:
+        raise ConfigError(f"hydraulic effects: k0 {k0:g} A must stay positive and the line volumes "
+                          f"{extra_a:g}, {extra_b:g} m^3 added, not taken (hysteresis_extra_k0_a, line_volume_extra_*)")
     cfg = _section(cfg, "hysteresis", k0_a=k0)
     cfg = _section(cfg, "servovalve",
                    supply_clearance_m3_per_pa_s=v.supply_clearance_m3_per_pa_s + fx.valve_leak_m3_per_pa_s,
                    return_clearance_m3_per_pa_s=v.return_clearance_m3_per_pa_s + fx.valve_leak_m3_per_pa_s)
-    cfg = _section(cfg, "vane", leak_coefficient_m3_per_pa_s=s.leak_coefficient_m3_per_pa_s + fx.vane_leak_m3_per_pa_s)
-    cfg = _section(cfg, "supply_line", accumulator_m3_per_pa=accumulator)
+    cfg = _section(cfg, "vane", leak_coefficient_m3_per_pa_s=s.leak_coefficient_m3_per_pa_s + fx.vane_leak_m3_per_pa_s,
+                   extra_line_volume_a_m3=extra_a, extra_line_volume_b_m3=extra_b)
     return _section(cfg, "power", pump_droop_pa_s_per_m3=pw.pump_droop_pa_s_per_m3 + fx.pump_droop_pa_s_per_m3)
 
 

@@ -10,20 +10,21 @@ KEEP = 0.20          # held-out reduction of J an effect must bring to be named
 MIN_DJ = 1.0         # ... and at least one noise variance (J: noise variances summed over channels)
 MIN_T = 4.0          # |value| / stderr an effect's parameter must reach
 ALIKE = 0.90         # an alternative buying this share of the best one's improvement: not separable
-CAL_BOUND = 0.3      # calibration: relative deviation allowed
+CAL_BOUND = 0.5      # calibration: relative deviation allowed
 DIFF_STEP = 1e-3     # finite-difference step in the scaled parameters
 FIT_SECONDS = 6.0    # fits use at most this much of the fitted part (its start): the doctor's time
 ROUNDS = 3           # greedy rounds at most
 
 #: calibrated nominal parameters: (name, side) -- each a relative deviation, 0 = nominal.
-#: oil side: the valve's flow gain (port width, paper 001 §3.2.1 "measured directly");
-#: mechanical side: the load's weight moment m g r (whatever the forearm carries).  The leak
-#: coefficients, friction and shaft stiffness are not calibrated: each is exactly the parameter
-#: a family tests.  Nor are the oil's bulk modulus and the load's inertia: they multiply the
-#: angle's smoothed derivatives (the oil spring beta D_v / V turns 0.1 mrad of angle into 45 kPa),
-#: and the smoothing spline's attenuation near its cut-off bent them by -29 % and +10 % on a
-#: clean simulated recording with the model's 0.3 mrad encoder noise.
-CALIBRATION = [("valve_flow_gain", "oil"), ("load_weight", "mech")]
+#: oil side: the valve's flow gain (port width, paper 001 §3.2.1 "measured directly") and the
+#: oil's effective bulk modulus; mechanical side: the load's inertia and weight moment m g r
+#: (whatever the forearm carries).  The leak coefficients, friction and shaft stiffness are not
+#: calibrated: each is exactly the parameter a family tests.  The bulk modulus is an *effective*
+#: one for replays from a noisy angle: the oil spring beta D_v / V multiplies the smoothed
+#: angle's error (errors in variables attenuate the fitted gain), and it came out at -29 % on a
+#: clean simulated recording with the model's 0.3 mrad encoder noise.  Calibrating it keeps that
+#: attenuation out of the families that soften one chamber's spring (line_dynamics).
+CALIBRATION = [("valve_flow_gain", "oil"), ("bulk_modulus", "oil"), ("load_inertia", "mech"), ("load_weight", "mech")]
 OIL_CAL = [k for k, (_, side) in enumerate(CALIBRATION) if side == "oil"]
 MECH_CAL = [k for k, (_, side) in enumerate(CALIBRATION) if side == "mech"]
 
@@ -36,7 +37,7 @@ class Hypothesis:
     unit: float         # one scaled parameter unit in SI
     lower: float        # bounds in SI
     upper: float
-    side: str           # "oil" (needs the replay) or "mech" (equation errors only)
+    side: str           # "oil" (needs the replay), "mech" (equation errors only) or "both"
     regime: str         # where the physics says it should show
     needs_torque: bool = False
 
@@ -56,13 +57,15 @@ HYPOTHESES = [
     Hypothesis("valve_null_shift", ACT, "null_shift_a", 1e-2, -0.3, 0.3, "oil", "valve near null"),
     Hypothesis("valve_leak", ACT, "valve_leak_m3_per_pa_s", 1e-13, 0.0, 2e-11, "oil", "valve near null"),
     Hypothesis("piston_leak", ACT, "vane_leak_m3_per_pa_s", 1e-13, 0.0, 2e-11, "oil", "large load pressure"),
-    Hypothesis("line_dynamics", {"supply": "all"}, "accumulator_change_m3_per_pa", 1e-14, -2.9e-13, 5e-12, "oil",
-               "fast changes of the valve flow"),
+    Hypothesis("line_dynamics", {"actuator": "elbow", "chamber": "a"}, "line_volume_extra_a_m3", 1e-7, 0.0, 5e-5,
+               "oil", "fast vane motion (the oil spring)"),
+    Hypothesis("line_dynamics", {"actuator": "elbow", "chamber": "b"}, "line_volume_extra_b_m3", 1e-7, 0.0, 5e-5,
+               "oil", "fast vane motion (the oil spring)"),
     Hypothesis("supply_droop", {"supply": "all"}, "pump_droop_pa_s_per_m3", 1e10, 0.0, 2e13, "oil",
                "large valve flow"),
     Hypothesis("coulomb_friction", JOINT, "coulomb_extra_nm", 0.1, -1.4, 10.0, "mech", "velocity reversals"),
     Hypothesis("viscous_friction", JOINT, "viscous_extra_nm_s_per_rad", 0.01, -0.05, 10.0, "mech", "high speed"),
-    Hypothesis("angle_sensor_offset", JOINT, "angle_sensor_offset_rad", 0.01, -0.5, 0.5, "mech",
+    Hypothesis("angle_sensor_offset", JOINT, "angle_sensor_offset_rad", 0.01, -0.5, 0.5, "both",
                "all the time (constant)"),
     Hypothesis("force_sensor_offset", JOINT, "torque_sensor_offset_nm", 0.1, -20.0, 20.0, "mech",
                "all the time (constant)", needs_torque=True),
@@ -86,6 +89,7 @@ def select_hypotheses(names=None, torque: bool = True) -> list[Hypothesis]:
 
 def calibrated(cfg0, mech0, dev):
     """(fluid cfg, Mechanics) with the CALIBRATION deviations ``dev`` applied."""
-    sv = cfg0.servovalve
-    cfg = dataclasses.replace(cfg0, servovalve=dataclasses.replace(sv, port_width_m=sv.port_width_m * (1.0 + dev[0])))
-    return cfg, mech0.scaled(0.0, dev[1])
+    sv, oil = cfg0.servovalve, cfg0.oil
+    cfg = dataclasses.replace(cfg0, servovalve=dataclasses.replace(sv, port_width_m=sv.port_width_m * (1.0 + dev[0])),
+                              oil=dataclasses.replace(oil, bulk_modulus_pa=oil.bulk_modulus_pa * (1.0 + dev[1])))
+    return cfg, mech0.scaled(dev[2], dev[3])

@@ -21,7 +21,7 @@ from .mechanics import channel_masks, equation_errors
 from .replay import hysteresis_output, replay_oil
 
 OIL_FIELDS = ("hysteresis_extra_k0_a", "null_shift_a", "valve_leak_m3_per_pa_s", "vane_leak_m3_per_pa_s",
-              "accumulator_change_m3_per_pa", "pump_droop_pa_s_per_m3", "pressure_sensor_offset_a_pa",
+              "line_volume_extra_a_m3", "line_volume_extra_b_m3", "pump_droop_pa_s_per_m3", "pressure_sensor_offset_a_pa",
               "pressure_sensor_offset_b_pa", "angle_sensor_offset_rad")
 
 
@@ -130,7 +130,8 @@ def fit(prob: Problem, hyps, x_eff, dev0, base: HydraulicEffects, sides=("oil", 
 
 def sides_of(hyps) -> tuple[str, ...]:
     """The calibration sides a fit of ``hyps`` needs (a mechanical effect leaves the oil replay alone)."""
-    return tuple(sorted({h.side for h in hyps})) or ("oil", "mech")
+    sides = {h.side for h in hyps}
+    return ("oil", "mech") if not sides or "both" in sides else tuple(sorted(sides))
 
 
 __all__ = ["MECH_CAL", "OIL_CAL", "Problem", "effects_with", "fit", "sides_of"]

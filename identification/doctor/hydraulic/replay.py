@@ -8,7 +8,7 @@ its chambers from the measured motion):
   hold) -> the simulator's own compiled circuit step (``pneumatics.hydraulics.kernel.step_kernel``:
   orifice flows eq. 5, clearance leakage eqs. 11-12, supply and return lines eqs. 6-7 and 10,
   chambers eqs. 8-9) with the vane angle and velocity taken from the measured angle (a
-  smoothing spline, :mod:`identification.base.smoothing`).  Chamber pressures are restarted
+  smoothing spline cut at ``SMOOTH_HZ``, :mod:`identification.base.smoothing`).  Chamber pressures are restarted
   from the measured ones (minus any hypothesised sensor offset) every ``RESTART_S``; the
   valve, the hysteresis and the supply and return lines run on, from the null state;
 * **mechanical side** (:mod:`.mechanics`): the vane and load equations with the measured
@@ -33,6 +33,14 @@ from pneumatics.hydraulics.kernel import pack, pack_ports, step_kernel
 from pneumatics.hydraulics.circuit import VALVE
 
 RESTART_S = 1.0
+SMOOTH_HZ = 10.0
+"""Half-amplitude frequency of the smoothing splines of the angle and the torque [Hz]
+(:func:`identification.base.smoothing.spline_cutoff_hz`): above the position loop's motion
+and the chambers' ~5 Hz corner.  The oil spring (beta D_v / V = 4.5e8 Pa/rad) turns the
+angle's noise left below the cut-off into pressure error (0.3 mrad white at 1 kHz leaves
+~0.04 mrad, ~19 kPa, in 10 Hz): on a null case the nominal model's held-out J (4 channels,
+noise variances) was 12.8 with the discrepancy principle's lighter smoothing, 5.7 at 8 Hz,
+5.6 at 15 Hz and 24 at 4 Hz (too much lag)."""
 BURN_IN_S = 0.3
 SUBSTEP_S = 5.0e-4
 """Largest substep of the replay [s] (two per sample at 1 kHz).  The simulator steps at 0.2 ms;
@@ -73,10 +81,12 @@ def make_trace(time, current_a, angle, p_a, p_b, torque=None, source="", restart
     restart[0] = True
     idx = np.searchsorted(rel, np.arange(restart_s, rel[-1], restart_s))
     restart[idx[idx < t.size]] = True
-    q, qd, qdd = smooth_derivatives(t, np.asarray(angle, float), order=2)
+    lam = (2.0 * math.pi * SMOOTH_HZ) ** -4 / float(np.median(np.diff(t)))  # spline_cutoff_hz inverted
+    q, qd, qdd = smooth_derivatives(t, np.asarray(angle, float), order=2, lam=lam)
     smooth = {"q": q, "qd": qd, "qdd": qdd}
     if torque is not None:
-        smooth["tau"], smooth["taud"], smooth["taudd"] = smooth_derivatives(t, np.asarray(torque, float), order=2)
+        smooth["tau"], smooth["taud"], smooth["taudd"] = smooth_derivatives(t, np.asarray(torque, float), order=2,
+                                                                            lam=lam)
     return Trace(t, np.asarray(current_a, float), np.asarray(angle, float), np.asarray(p_a, float),
                  np.asarray(p_b, float), None if torque is None else np.asarray(torque, float), smooth,
                  rel >= BURN_IN_S, restart, source)
