@@ -116,7 +116,7 @@ def test_clean_recording_gives_no_finding(tmp_path):
 def test_report_files_through_the_entry(friction_case, tmp_path):
     rep = _doctor(friction_case, ["coulomb_friction", "valve_leak"])
     write(rep, tmp_path / "out")  # identification.doctor.write dispatches on the model's kind
-    for name in ("report.json", "report.md", "model.toml", "heldout_fit.png"):
+    for name in ("report.json", "report.md", "fitted_effects.toml", "heldout_fit.png"):
         assert (tmp_path / "out" / name).is_file(), name
     written = json.loads((tmp_path / "out" / "report.json").read_text())
     assert written["model"] == "sarcos_elbow" and {"verdict", "baseline", "calibrated", "findings",

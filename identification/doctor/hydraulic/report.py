@@ -1,9 +1,11 @@
 """Write a hydraulic doctor report (DESIGN.md "The mismatch finder"), every file atomically:
 ``report.json``; ``heldout_fit.png`` (measured vs the calibrated model before and after the
-findings, over the held-out window the first finding changed most); ``model.toml`` (the
+findings, over the held-out window the first finding changed most); ``fitted_effects.toml`` (the
 calibrated parameters and the kept effects with standard errors, as
 :class:`pneumatics.hydraulics.effects.HydraulicEffects` fields: ``build_sim(fitted_effects(report))``
-simulates what was found); ``report.md`` (the same for people, written last)."""
+simulates what was found; not DESIGN.md's ``model.toml``, which ``load_robot`` and
+``pneumasim run --fitted`` read for the valve-driven arms and which does not apply to this
+plant); ``report.md`` (the same for people, written last)."""
 from __future__ import annotations
 
 import json
@@ -33,7 +35,7 @@ def summary(report: dict) -> str:
     return "\n".join(lines)
 
 
-def model_toml(report: dict) -> str:
+def fitted_toml(report: dict) -> str:
     """The model as fitted: calibrated parameters and kept effects, each with its standard error."""
     lines = [f'model = "{report["model"]}"', 'kind = "hydraulic"', "", "[calibrated]"]
     lines += [f"{k} = {v:.9g}" for k, v in report["calibrated"].items()]
@@ -48,12 +50,12 @@ def model_toml(report: dict) -> str:
 
 
 def write(report: dict, out: str | Path, plots: bool = True) -> Path:
-    """report.json, model.toml, heldout_fit.png and report.md into ``out``; returns the report.json path."""
+    """report.json, fitted_effects.toml, heldout_fit.png and report.md into ``out``; returns the report.json path."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     ctx = report.pop("_plot", None)
     atomic_write_json(out / "report.json", jsonable(report))
-    atomic_write_text(out / "model.toml", model_toml(report))
+    atomic_write_text(out / "fitted_effects.toml", fitted_toml(report))
     pngs = []
     if ctx is not None and plots:
         pngs.append(_plot_fit(report, ctx, out))
