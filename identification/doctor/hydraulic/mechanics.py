@@ -97,7 +97,7 @@ def equation_errors(tr, mech: Mechanics, fx: HydraulicEffects) -> dict:
         return {"rigid": rigid}
     compliance = 1.0 / mech.k_s + fx.shaft_compliance_extra_rad_per_nm
     tau = tr.torque - fx.torque_sensor_offset_nm
-    tau_s, taud, taudd = s["tau"] - fx.torque_sensor_offset_nm, s["taud"], s["taudd"]
+    tau_s, taud = s["tau"] - fx.torque_sensor_offset_nm, s["taud"]
     transmitted = tau + mech.b_s * taud * compliance
     theta_l = q - tau_s * compliance
     vane = hydraulic - mech.j_v * qdd - friction - transmitted

@@ -26,11 +26,10 @@ import numpy as np
 from numba import njit
 from scipy.linalg import expm
 
-from pneumatics.hydraulics.circuit import HydraulicCircuit
+from pneumatics.hydraulics.circuit import VALVE, HydraulicCircuit
 from pneumatics.hydraulics.effects import HydraulicEffects, apply_to_cfg
 from pneumatics.hydraulics.hysteresis import Hysteresis
 from pneumatics.hydraulics.kernel import pack, pack_ports, step_kernel
-from pneumatics.hydraulics.circuit import VALVE
 
 RESTART_S = 1.0
 SMOOTH_HZ = 10.0
@@ -60,7 +59,7 @@ class Trace:
     p_a: np.ndarray
     p_b: np.ndarray
     torque: np.ndarray | None   # joint torque sensor [N m] (optional)
-    smooth: dict                # smoothing-spline angle and derivatives: "q", "qd", "qdd"; "tau", "taud", "taudd"
+    smooth: dict                # smoothing-spline angle and derivatives: "q", "qd", "qdd"; "tau", "taud"
     scored: np.ndarray          # (N,) bool: after the burn-in
     restart: np.ndarray         # (N,) bool: chamber pressures restarted from the measurement here
     source: str = ""
@@ -85,8 +84,7 @@ def make_trace(time, current_a, angle, p_a, p_b, torque=None, source="", restart
     q, qd, qdd = smooth_derivatives(t, np.asarray(angle, float), order=2, lam=lam)
     smooth = {"q": q, "qd": qd, "qdd": qdd}
     if torque is not None:
-        smooth["tau"], smooth["taud"], smooth["taudd"] = smooth_derivatives(t, np.asarray(torque, float), order=2,
-                                                                            lam=lam)
+        smooth["tau"], smooth["taud"] = smooth_derivatives(t, np.asarray(torque, float), order=1, lam=lam)
     return Trace(t, np.asarray(current_a, float), np.asarray(angle, float), np.asarray(p_a, float),
                  np.asarray(p_b, float), None if torque is None else np.asarray(torque, float), smooth,
                  rel >= BURN_IN_S, restart, source)

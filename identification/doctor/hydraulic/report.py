@@ -16,7 +16,6 @@ import numpy as np
 from identification.base.reporting import finding_line, jsonable, pyplot, save_figure, summary_head
 from pneumatics.io import atomic_write_json, atomic_write_text
 
-from .diagnose import fitted_effects
 
 UNITS = {"p_a": ("MPa", 1e-6), "p_b": ("MPa", 1e-6), "vane": ("N m", 1.0), "load": ("N m", 1.0), "rigid": ("N m", 1.0)}
 
