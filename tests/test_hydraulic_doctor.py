@@ -105,6 +105,24 @@ def test_planted_coulomb_friction_is_named_at_the_vane(friction_case):
     assert first["heldout_nrmse"]["after"] < first["heldout_nrmse"]["before"]
 
 
+def test_without_torque_sensor_the_shaft_is_stiff_and_friction_still_named(friction_case):
+    recs = [read_csv(friction_case["recordings"][k]) for k in ("main", "heldout")]
+    for r in recs:
+        del r.columns["tau.elbow"]
+    rep = diagnose_hydraulic("sarcos_elbow", recs[:1], recs[1:], hypotheses=["coulomb_friction", "shaft_compliance",
+                                                                            "force_sensor_offset", "valve_leak"])
+    assert rep["diagnostics"]["channels"] == ["p_a", "p_b", "rigid"]
+    assert rep["diagnostics"]["hypotheses_tested"] == ["valve_leak[elbow]", "coulomb_friction[elbow]"]
+    assert [f["effect"] for f in rep["findings"]] == ["coulomb_friction"]
+
+
+def test_torque_in_some_recordings_only_is_refused(friction_case):
+    main, held = (read_csv(friction_case["recordings"][k]) for k in ("main", "heldout"))
+    del held.columns["tau.elbow"]
+    with pytest.raises(RecordingError, match=r"tau\.elbow"):
+        diagnose_hydraulic("sarcos_elbow", [main], [held])
+
+
 def test_clean_recording_gives_no_finding(tmp_path):
     truth = make_case(tmp_path / "null", 42, None, seconds=8.0, heldout_seconds=5.0)
     rep = _doctor(truth, ["coulomb_friction", "viscous_friction", "pressure_sensor_offset", "valve_null_shift"])
