@@ -7,6 +7,7 @@ DESIGN.md ("The mismatch finder"):
 ``valve_arm``  arm2, humanoid38 (Kokoro valves, cylinders, MuJoCo arm): :mod:`.valve_arm`
 ``jetpipe``    the jet-pipe servo actuator on its stopper bench: :mod:`.jetpipe`
 ``bench``      lab benches (a sealed chamber, a cylinder on a load cell): :mod:`.bench`
+``hydraulic``  the SARCOS hydraulic elbow (servovalve, rotary vane, shaft): :mod:`.hydraulic`
 =============  ====================================================================
 
 What they share (statistics, least squares, smoothing, report pieces) is in
@@ -26,7 +27,7 @@ import models
 from pneumatics.errors import UnknownNameError
 
 #: the model kinds a doctor exists for (models/<name>/fluid.toml ``kind``)
-KINDS = ("valve_arm", "jetpipe", "bench")
+KINDS = ("valve_arm", "jetpipe", "bench", "hydraulic")
 
 
 def kind_of(model: str) -> str:
@@ -39,8 +40,14 @@ def kind_of(model: str) -> str:
 
 
 def room_pressure_pa(model: str) -> float:
-    """The room pressure [Pa] of shipped model ``model`` (what ``--gauge`` adds to pressures)."""
+    """The room pressure [Pa] of shipped model ``model`` (what ``--gauge`` adds to pressures);
+    for a hydraulic model its tank pressure (``[power] tank_pa``, atmospheric: 1e5 Pa for the
+    SARCOS elbow), the pressure a gauge transducer reads as zero."""
     kind = kind_of(model)
+    if kind == "hydraulic":
+        from .hydraulic.data import load_model_cfg as load_hydraulic_cfg
+
+        return float(load_hydraulic_cfg(model).power.tank_pa)
     if kind == "valve_arm":
         from pneumatics.robot import load_robot
 
@@ -72,6 +79,10 @@ def diagnose(model: str, recordings: list, holdouts: list = (), progress: Callab
         from .jetpipe.diagnose import diagnose_jetpipe
 
         report = diagnose_jetpipe(model, recordings, list(holdouts), progress=progress)
+    elif kind == "hydraulic":
+        from .hydraulic.diagnose import diagnose_hydraulic
+
+        report = diagnose_hydraulic(model, recordings, list(holdouts), progress=progress)
     else:
         from .bench.diagnose import diagnose_bench
 
@@ -95,6 +106,10 @@ def write(report: dict, out: str | Path) -> Path:
         from .jetpipe.report import write as write_jetpipe
 
         return write_jetpipe(report, out)
+    if kind == "hydraulic":
+        from .hydraulic.report import write as write_hydraulic
+
+        return write_hydraulic(report, out)
     from .bench.report import write as write_bench
 
     return write_bench(report, out)
@@ -107,6 +122,8 @@ def summary(report: dict) -> str:
         from .valve_arm.report import summary as summary_kind
     elif kind == "jetpipe":
         from .jetpipe.report import summary as summary_kind
+    elif kind == "hydraulic":
+        from .hydraulic.report import summary as summary_kind
     else:
         from .bench.report import summary as summary_kind
     return summary_kind(report)

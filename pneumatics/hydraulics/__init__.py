@@ -10,7 +10,8 @@ Reuses the fluid layer's ideas with an oil medium (:mod:`pneumatics.oil`) instea
 * :mod:`.kernel`      the same step compiled with numba
 * :mod:`.config`      ``fluid.toml`` loader (``kind = "hydraulic"``)
 * :mod:`.sim`         MuJoCo and hydraulics stepped together; :func:`load_hydraulic`
-* :mod:`.runner`      open-loop current runs -> Recording
+* :mod:`.runner`      current runs -> Recording (``run_measured``: the sensor columns the doctor reads)
+* :mod:`.effects`     physics the nominal model may leave out (the hydraulic doctor's families)
 """
 from .circuit import BLOCKED, VALVE, HydraulicCircuit, Port
 from .config import HydraulicCfg, load_hydraulic_cfg

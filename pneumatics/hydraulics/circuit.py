@@ -74,6 +74,7 @@ class HydraulicCircuit:
         self.kernel = kernel
         self.oil, self.power, self.valve, self.vane = oil, power, valve, vane
         self.r_s, self.i_s, self.c_s = supply_line.elements(oil)
+        self.r_s += power.pump_droop_pa_s_per_m3  # the pump's droop: a source resistance in series
         self.r_r, self.i_r, self.c_r = return_line.elements(oil)
         self.g_sp, self.g_pr, self.g_sr = valve.leak_conductances()
         self.k = oil.orifice_coefficient

@@ -24,7 +24,8 @@ def pack(circuit) -> np.ndarray:
         circuit.c_s, circuit.r_s, circuit.i_s, circuit.c_r, circuit.r_r, circuit.i_r,
         circuit.power.pump_pa, circuit.power.tank_pa, circuit.oil.bulk_modulus_pa,
         v.displacement_m3_per_rad, v.leak_coefficient_m3_per_pa_s,
-        v.line_volume_m3 + v.dead_volume_m3, v.half_stroke_rad, CAVITATION_FLOOR_PA])
+        v.line_volume_m3 + v.dead_volume_m3, v.half_stroke_rad, CAVITATION_FLOOR_PA,
+        v.extra_line_volume_a_m3, v.extra_line_volume_b_m3])
 
 
 def pack_ports(ports) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -59,8 +60,8 @@ def rates_kernel(y, p, modes, tap_p, tap_a, x_v, theta, omega, f, J, tapq):
     J[2, 2] -= 2.0 * g_sr / c_r
     qch0 = 0.0
     qch1 = 0.0
-    v_a = v0 + d_v * (half + theta)
-    v_b = v0 + d_v * (half - theta)
+    v_a = v0 + p[21] + d_v * (half + theta)
+    v_b = v0 + p[22] + d_v * (half - theta)
     for j in range(2):
         pj = y[4 + j]
         a_in = a_pos if j == 0 else a_neg    # supply -> a opens for x_v > 0, supply -> b for x_v < 0

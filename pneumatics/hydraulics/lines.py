@@ -45,3 +45,7 @@ class PowerCfg:
     pump_pa: float = spec(20.8e6, "pump outlet pressure, absolute (paper: 3000 psi = 20.7 MPa "
                           "gauge)", "Pa", 1e6, 1e8)
     tank_pa: float = spec(1.0e5, "tank pressure, absolute (atmospheric)", "Pa", 1e3, 1e7)
+    pump_droop_pa_s_per_m3: float = spec(0.0, "fall of the pump's outlet pressure per unit of flow "
+                                         "drawn (a pressure-compensated pump's droop; Merritt §8: a "
+                                         "source resistance in series with the supply line)",
+                                         "Pa s/m^3", 0.0, 1e14)

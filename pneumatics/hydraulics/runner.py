@@ -71,3 +71,47 @@ def run_current(sim: HydraulicJointSim, current: Callable[[float], float], durat
     meta = {"model": "sarcos_elbow", "rate_hz": rate_hz, "timestep_s": sim.dt, "noise": bool(noise),
             "name": name}
     return Recording(np.array(times), columns, meta, source=name)
+
+
+#: what a real elbow's sensors give (DESIGN.md names), the columns of :func:`run_measured`
+MEASURED = ["i.elbow", "q.elbow", "p_a.elbow", "p_b.elbow", "tau.elbow"]
+
+
+def run_measured(sim: HydraulicJointSim, current: Callable[[float], float], duration_s: float, *,
+                 rate_hz: float = 1000.0, noise: bool = True, rng: np.random.Generator | None = None,
+                 name: str = "run") -> Recording:
+    """A recording as the real elbow's sensors give it (what ``pneumasim doctor --model
+    sarcos_elbow`` reads): the columns :data:`MEASURED` only, the valve current ``i.elbow`` of
+    each row being the command applied *from* that row's time until the next row (zero-order
+    hold, as a controller logs it), sampled at ``rate_hz`` (a multiple of the control rate's
+    period), with the white sensor noise of ``[sensors]`` when ``noise``.
+
+    ``current(t)`` may read ``sim`` (a closed-loop controller): it is called once per
+    control period with the state at ``t``."""
+    s = sim.cfg.sensors
+    per_control = max(1, round(1.0 / (s.control_rate_hz * sim.dt)))
+    per_sample = max(1, round(1.0 / (rate_hz * sim.dt * per_control)))
+    n = round(duration_s * rate_hz)
+    times, cmd, q, pa, pb, tau = [], [], [], [], [], []
+    for _ in range(n + 1):
+        times.append(sim.time)
+        q.append(sim.vane_angle)
+        pa.append(float(sim.circuit.y[4]))
+        pb.append(float(sim.circuit.y[5]))
+        tau.append(sim.joint_torque_nm)
+        for k in range(per_sample):
+            sim.set_current(current(sim.time))
+            if k == 0:
+                cmd.append(sim.current_a)
+            sim.step(per_control)
+    columns = {"i.elbow": np.array(cmd), "q.elbow": np.array(q), "p_a.elbow": np.array(pa),
+               "p_b.elbow": np.array(pb), "tau.elbow": np.array(tau)}
+    if noise:
+        rng = rng or np.random.default_rng(0)
+        for col, kind in NOISY.items():
+            if col in columns:
+                sd = {"angle": s.angle_noise_rad, "pressure": s.pressure_noise_pa, "torque": s.torque_noise_nm}[kind]
+                columns[col] = columns[col] + rng.normal(0.0, sd, len(times))
+    meta = {"model": "sarcos_elbow", "rate_hz": rate_hz, "noise": bool(noise), "name": name,
+            "daq_averaging": False}  # sensors sampled at each row's time, not averaged over the period
+    return Recording(np.array(times), columns, meta, source=name)

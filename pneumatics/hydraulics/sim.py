@@ -74,6 +74,9 @@ class HydraulicJointSim:
         self.circuit = HydraulicCircuit(cfg.oil, cfg.power, cfg.supply_line, cfg.return_line,
                                         cfg.servovalve, cfg.vane)
         self.d_v = cfg.vane.displacement_m3_per_rad
+        self.null_shift_a = 0.0
+        """valve null shift [A]: a bias added to i_hys at the tip (0 = a centred valve;
+        pneumatics.hydraulics.effects sets it)"""
         self.reset()
 
     # ----------------------------------------------------------------- state
@@ -94,7 +97,7 @@ class HydraulicJointSim:
             self.hysteresis.demagnetize()
         self.current_a = 0.0
         self.i_hys_a = self.hysteresis(0.0)
-        self.tip.reset(self.i_hys_a * self.cfg.servovalve.tip_travel_m
+        self.tip.reset((self.i_hys_a + self.null_shift_a) * self.cfg.servovalve.tip_travel_m
                        / self.cfg.hysteresis.saturation_current_a)
         self.data.ctrl[self._act] = self.torque_hydraulic_nm
         mujoco.mj_forward(self.model, self.data)
@@ -131,8 +134,9 @@ class HydraulicJointSim:
         n = arguments.step_count(n, "HydraulicJointSim.step")
         m, d, c, tip = self.model, self.data, self.circuit, self.tip
         dt, d_v, vq, vd, act = self.dt, self.d_v, self._vane_q, self._vane, self._act
+        i_tip = self.i_hys_a + self.null_shift_a
         for _ in range(n):
-            x_v = tip.step(self.i_hys_a)
+            x_v = tip.step(i_tip)
             y = c.step(dt, x_v, float(d.qpos[vq]), float(d.qvel[vd]))
             d.ctrl[act] = d_v * (y[4] - y[5])
             mujoco.mj_step(m, d)

@@ -3,6 +3,7 @@
 Chamber a turns the vane positive (DESIGN.md: chamber a extends / positive joint direction)::
 
     V_a = V_line + V_dead + D_v (theta_half + theta)      V_b = V_line + V_dead + D_v (theta_half - theta)
+    (plus ``extra_line_volume_a_m3`` / ``_b_m3``: a passage of one chamber longer than the other's)
     torque on the vane   tau = D_v (P_a - P_b)                      (eqs. 13, 19)
     load flow            Q_L = D_v omega                            (eq. 19)
     cross-chamber leak   Q_leak = R_l (P_a - P_b), from a to b      (eqs. 8-9)
@@ -28,6 +29,10 @@ class VaneCfg:
                                  "m^3", 1e-9, 1e-3)
     line_volume_m3: float = spec(2.0e-6, "volume of the passage from the valve port to each "
                                  "chamber (Table 1: V_l1, V_l2)", "m^3", 0.0, 1e-3)
+    extra_line_volume_a_m3: float = spec(0.0, "line volume added to chamber a's passage alone (a longer "
+                                         "or softer hose to that port; paper 001 Table 1: V_l1)", "m^3", 0.0, 1e-3)
+    extra_line_volume_b_m3: float = spec(0.0, "line volume added to chamber b's passage alone (V_l2)",
+                                         "m^3", 0.0, 1e-3)
     leak_coefficient_m3_per_pa_s: float = spec(1.96e-13, "cross-chamber leakage coefficient R_l "
                                                "(paper 001 §3.2.3: 1.96e-7 m^3/(MPa s))",
                                                "m^3/(Pa s)", 0.0, 1e-9)
@@ -36,7 +41,8 @@ class VaneCfg:
         """(V_a, V_b) [m^3] at vane angle ``theta`` [rad] (0 = mid-stroke)."""
         base = self.line_volume_m3 + self.dead_volume_m3
         d = self.displacement_m3_per_rad
-        return base + d * (self.half_stroke_rad + theta), base + d * (self.half_stroke_rad - theta)
+        return (base + self.extra_line_volume_a_m3 + d * (self.half_stroke_rad + theta),
+                base + self.extra_line_volume_b_m3 + d * (self.half_stroke_rad - theta))
 
     def torque(self, p_a: float, p_b: float) -> float:
         """Hydraulic torque on the vane [N m], positive turning the joint positive."""
