@@ -18,6 +18,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from identification.base.statistics import input_xcorr, ljung_box, ljung_box_p
 from pneumatics.effects.from_finding import form_of
@@ -39,7 +40,18 @@ from .search import search_mechanical, search_pneumatic, start_torque_balance
 
 
 def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
-    """Run the doctor; returns the report dict (DESIGN.md report.json) with extras."""
+    """Run the doctor; returns the report dict (DESIGN.md report.json) with extras.
+
+    BLAS runs on one thread: the doctor's least squares are small (a few thousand rows, tens to
+    a hundred columns), where OpenBLAS's threads only add their start-up, and on a busy machine
+    they spin against each other: the humanoid38 rigid-body calibration took 196 s with them
+    and 2.7 s without at a load of 7 on 2 cores.  It also gives the same bits as a sweep
+    worker (workflow.sweep.cases.one_thread), so a benchmark case and the CLI agree."""
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _diagnose(robot, recordings, holdouts, progress)
+
+
+def _diagnose(robot: Robot, recordings, holdouts, progress) -> dict:
     t_start = time.perf_counter()
 
     def say(msg):
