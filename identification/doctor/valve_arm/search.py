@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .flex_check import suggested_candidates
 from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
 from .data import Experiment
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
@@ -52,6 +53,8 @@ def search_pneumatic(run: DoctorRun, say) -> None:
         scored.sort(key=lambda s: -s.predicted_gain)
         cands = [s for s in scored if s.predicted_gain >= MIN_PREDICTED]
         top = worth_fitting(cands)
+        # the families a paying flexible correction suggests, fitted whatever their score
+        top += suggested_candidates(run, [s for s in scored if s.predicted_gain > 0], top)
         if not top:
             break
         base_h = chamber_rms(held, win_h, run.mods)
