@@ -14,7 +14,7 @@ from .regimes import chamber_regimes
 from .rules import MECH_BLOCK_S, DoctorRun
 
 #: at most this many candidates a round adds beyond the score test's choice
-MAX_SUGGESTED = 3
+MAX_SUGGESTED = 2
 
 
 def block_samples(exp) -> int:
@@ -74,3 +74,18 @@ def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
                          + (f"; no library effect ({', '.join(c.suggests)}) took it up" if c.suggests
                             else "; no family of the library acts through these inputs") + also)})
     return out, summary(corrs)
+
+
+def partial_projection(run: DoctorRun, finding) -> bool:
+    """True when ``finding`` (a pneumatic effect about to be kept) is only a partial projection
+    of what its place lacks: with it in the model, the flexible correction there still pays
+    (flexible.paying), carried by inputs that do not point to its family.  Then it is not
+    named; what it would have taken up is reported unexplained (flexible_unexplained).  The
+    chambers' counterpart of the joints' YARDSTICK_SHARE rule (search._keep_mechanical)."""
+    hyp = finding.scored.hyp
+    corrs, _, _ = corrections(run.exp, run.held, finding.scored.mods, block_samples(run.held))
+    for c in paying(corrs):
+        at = ("supply" in c.where) if hyp.family == "supply_droop" else bool(set(c.chambers) & set(hyp.chambers))
+        if at and "supply" not in c.where and finding.family not in c.suggests:
+            return True
+    return False

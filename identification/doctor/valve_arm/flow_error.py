@@ -1,8 +1,8 @@
 """The chambers' mass-flow equation error and the physical inputs a correction of it may use.
 
-A chamber's energy balance with a polytropic exponent n (paper 002 eq. 9; Richer & Hurmuzlu
-2000, eq. 13 for n between 1 and 1.4) gives the net mass flow into it from the measured pressure
-and motion:
+A chamber's energy balance with a polytropic exponent n between 1 and 1.4 (paper 002 eq. 9,
+dp/dt = n / V (R T mdot - p dV/dt), solved for the mass flow) gives the net mass flow into it
+from the measured pressure and motion:
 
     mdot_implied = (V dp/dt / n + p dV/dt) / (R T),
 
