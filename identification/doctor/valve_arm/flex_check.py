@@ -65,11 +65,11 @@ def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
         depends = c.depends_on
         also = f"; the named {', '.join(f.family for f in named)} there leaves it" if named else ""
         out.append({
-            "where": c.where, "regime": regime, "share_of_residual": float(c.gain),
+            "where": c.where, "regime": regime, "share_of_residual": float(c.best_group_gain),
             "residual": "supply" if supply else "mass flow",
             "depends_on": depends, "suggests": c.suggests, "windows": windows(t_b, fitted),
             "evidence": (f"a flexible correction of the {'supply pressure common to all chambers' if supply else 'mass flow'} "
-                         f"removes {100 * c.gain:.0f} % of the held-out mass-flow equation error"
+                         f"removes {100 * c.best_group_gain:.0f} % of the held-out mass-flow equation error"
                          + ("" if supply else f", carried by {' and '.join(depends)}")
                          + (f"; no library effect ({', '.join(c.suggests)}) took it up" if c.suggests
                             else "; no family of the library acts through these inputs") + also)})

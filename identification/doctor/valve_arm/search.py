@@ -75,8 +75,11 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             break
         if partial_projection(run, finding):
             # the flexible correction at its place still pays through other inputs: not
-            # named; the place is reported unexplained after the search (flex_check)
+            # named; the place is reported unexplained after the search (flex_check), and no
+            # other family is tried there (as search._keep_mechanical does at a joint)
             say(f"{finding.scored.hyp.label}: a partial projection of what the flexible correction there takes up")
+            place = set(finding.scored.hyp.chambers)
+            run.tried.update(s.hyp.label for s in scored if set(s.hyp.chambers) & place and "supply" not in s.hyp.where)
             run.tried.add(finding.scored.hyp.label)
             continue
         run.findings.append(finding)
