@@ -161,6 +161,7 @@ def _report(run: DoctorRun, located: Located, replays: dict, calibrated: dict, f
         "diagnostics": {
             "pressure_noise_pa": run.sigma,
             "calibration_flags": flags,
+            "flexible_corrections": located.flexible,
             "withdrawn_after_final_fit": run.withdrawn,
             "chamber_rms_heldout_pa": dict(zip(chambers, map(float, located.rms_c))),
             "chamber_rms_train_pa": dict(zip(chambers, map(float, located.rms_t))),

@@ -9,6 +9,7 @@ import numpy as np
 
 from identification.base.statistics import bootstrap_inclusion, locate_regime, windows
 
+from .flex_check import flexible_unexplained
 from .pneumatic import PneumaticMods, replay
 from .regimes import chamber_regimes, joint_regimes
 from .rules import HORIZON, MECH_KEEP, PNEU_KEEP, TRAIN_RATIO, UNEXPLAINED_RATIO, DoctorRun, Finding
@@ -28,6 +29,8 @@ class Located:
     rms_t: np.ndarray
     """(C,) training RMS per chamber [Pa]"""
     unexplained: list
+    flexible: dict
+    """every place's flexible mass-flow correction (flexible.summary)"""
 
 
 def locate(run: DoctorRun, flags: list) -> Located:
@@ -49,8 +52,12 @@ def locate(run: DoctorRun, flags: list) -> Located:
     rms_t = np.sqrt(np.mean((pred_t - meas_t) ** 2, axis=(0, 1)))
     pred_b, _ = replay(held, win_h, mods_without_all(mods, run.findings))
     res_base_h = pred_b - meas_h                          # (W, H, C) before the findings
-    unexplained += _unexplained_chambers(run, res_h, res_base_h, rms_c, rms_t, idx_h, t_h, flags)
-    return Located(res_h, res_base_h, rms_c, rms_t, unexplained)
+    flex, flex_summary = flexible_unexplained(run)
+    unexplained += flex
+    # the replay-RMS rule, for a chamber the flexible correction did not already report
+    unexplained += [u for u in _unexplained_chambers(run, res_h, res_base_h, rms_c, rms_t, idx_h, t_h, flags)
+                    if u["where"] not in [x["where"] for x in flex]]
+    return Located(res_h, res_base_h, rms_c, rms_t, unexplained, flex_summary)
 
 
 def _locate_pneumatic(run: DoctorRun, f: Finding, meas_h, res_h, idx_h, t_h) -> None:

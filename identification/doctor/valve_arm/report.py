@@ -37,7 +37,10 @@ def summary(report: dict) -> str:
                          f"({100 * (1 - n['after'] / max(n['before'], 1e-12)):.0f} % better{inside})")
     for u in report["unexplained"]:
         where = " ".join(f"{k} {v}" for k, v in u["where"].items())
-        lines.append(f"  unexplained at {where}, {u['regime']}: {100 * u['share_of_residual']:.0f} % of the residual")
+        carried = f"; depends on {', '.join(u['depends_on'])}" if u.get("depends_on") else ""
+        tried = f" (suggests {', '.join(u['suggests'])})" if u.get("suggests") else ""
+        lines.append(f"  unexplained at {where}, {u['regime']}: {100 * u['share_of_residual']:.0f} % of the "
+                     f"{u.get('residual', 'pressure')} residual{carried}{tried}")
     if not report["findings"] and not report["unexplained"]:
         lines.append("  the calibrated model explains the recordings down to their noise")
     flags = d["calibration_flags"]
@@ -196,8 +199,11 @@ def _markdown(report, pngs, fitted: bool = False) -> str:
     lines += ["", "## Unexplained", ""]
     if report["unexplained"]:
         for u in report["unexplained"]:
+            carried = (f" Depends on: {', '.join(u['depends_on'])}; families these inputs suggest: "
+                       f"{', '.join(u['suggests']) or 'none in the library'}." if u.get("depends_on") else "")
             lines.append(f"- {json.dumps(u['where'])}, {u['regime']}: {100 * u['share_of_residual']:.0f} % of the "
-                         f"held-out {u.get('residual', 'pressure')} residual; windows {u['windows']}. {u['evidence']}.")
+                         f"held-out {u.get('residual', 'pressure')} residual; windows {u['windows']}. {u['evidence']}."
+                         + carried)
     else:
         lines.append("Nothing above the noise floor is left unexplained.")
     lines += ["", "## Calibration (1 = nominal)", "",

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .flex_check import partial_projection, suggested_candidates
 from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
 from .data import Experiment
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
@@ -52,6 +53,8 @@ def search_pneumatic(run: DoctorRun, say) -> None:
         scored.sort(key=lambda s: -s.predicted_gain)
         cands = [s for s in scored if s.predicted_gain >= MIN_PREDICTED]
         top = worth_fitting(cands)
+        # the families a paying flexible correction suggests, fitted whatever their score
+        top += suggested_candidates(run, [s for s in scored if s.predicted_gain > 0], top)
         if not top:
             break
         base_h = chamber_rms(held, win_h, run.mods)
@@ -70,6 +73,15 @@ def search_pneumatic(run: DoctorRun, say) -> None:
         finding = accept_best(top, PNEU_KEEP)
         if finding is None:
             break
+        if partial_projection(run, finding):
+            # the flexible correction at its place still pays through other inputs: not
+            # named; the place is reported unexplained after the search (flex_check), and no
+            # other family is tried there (as search._keep_mechanical does at a joint)
+            say(f"{finding.scored.hyp.label}: a partial projection of what the flexible correction there takes up")
+            place = set(finding.scored.hyp.chambers)
+            run.tried.update(s.hyp.label for s in scored if set(s.hyp.chambers) & place and "supply" not in s.hyp.where)
+            run.tried.add(finding.scored.hyp.label)
+            continue
         run.findings.append(finding)
         run.tried.add(finding.scored.hyp.label)
         run.mods = finding.scored.mods

@@ -1,0 +1,91 @@
+"""The doctor's never-silent rule for the chambers and the supply: where a flexible mass-flow
+correction (:mod:`.flexible`) still pays on held-out data with the findings in place and no
+finding there is of a family its inputs suggest, the place is reported ``unexplained`` with
+what the correction depends on; and the families a paying correction suggests are fitted even
+when the score test ranks them low (:func:`suggested_candidates`)."""
+from __future__ import annotations
+
+import numpy as np
+
+from identification.base.statistics import locate_regime, windows
+
+from .flexible import corrections, paying, summary
+from .regimes import chamber_regimes
+from .rules import MECH_BLOCK_S, DoctorRun
+
+#: at most this many candidates a round adds beyond the score test's choice
+MAX_SUGGESTED = 2
+
+
+def block_samples(exp) -> int:
+    return max(1, int(round(MECH_BLOCK_S * exp.rate_hz)))
+
+
+def suggested_candidates(run: DoctorRun, scored: list, chosen: list) -> list:
+    """Scored hypotheses (not yet chosen) of the families the paying corrections suggest, at
+    their places: the score test is linear at a calibration that may have absorbed part of the
+    effect, so its ranking is rough; the flexible correction sees the inputs the effect acts
+    through.  Best predicted gain first, at most MAX_SUGGESTED."""
+    corrs, _, _ = corrections(run.exp, run.held, run.mods, block_samples(run.held))
+    labels = {s.hyp.label for s in chosen}
+    extra = []
+    for c in paying(corrs):
+        fams = set(c.suggests)
+        for s in scored:
+            h = s.hyp
+            at = h.where == c.where or ("chamber" not in h.where and "supply" not in c.where
+                                        and set(c.chambers) <= set(h.chambers))
+            if h.family in fams and at and h.label not in labels:
+                extra.append(s)
+    extra.sort(key=lambda s: -s.predicted_gain)
+    out = []
+    for s in extra:
+        if s.hyp.label not in {x.hyp.label for x in out} and len(out) < MAX_SUGGESTED:
+            out.append(s)
+    return out
+
+
+def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
+    """(unexplained entries, diagnostics) of the flexible corrections under the final model."""
+    held = run.held
+    corrs, _, ho = corrections(run.exp, held, run.mods, block_samples(held))
+    t_b = held.t[ho.sample]
+    out = []
+    for c in paying(corrs):
+        named = [f for f in run.findings if set(c.chambers) & set(f.scored.hyp.chambers)
+                 or (("supply" in c.where) and f.family == "supply_droop")]
+        if any(f.family in c.suggests for f in named):
+            continue  # a finding of a family these inputs point to: its form's remainder
+        supply = "supply" in c.where
+        # the chamber where it acts most (the supply's: where the common term pays best)
+        ch = max(c.per_chamber, key=c.per_chamber.get) if supply else c.chambers[0]
+        fitted = c.fitted_h[:, ch] if supply else c.fitted_h
+        regs = {k: v[ho.sample] for k, v in chamber_regimes(held, ch).items()}
+        regime, _, _ = locate_regime(fitted, regs)
+        depends = c.depends_on
+        also = f"; the named {', '.join(f.family for f in named)} there leaves it" if named else ""
+        out.append({
+            "where": c.where, "regime": regime, "share_of_residual": float(c.best_group_gain),
+            "residual": "supply" if supply else "mass flow",
+            "depends_on": depends, "suggests": c.suggests, "windows": windows(t_b, fitted),
+            "evidence": (f"a flexible correction of the {'supply pressure common to all chambers' if supply else 'mass flow'} "
+                         f"removes {100 * c.best_group_gain:.0f} % of the held-out mass-flow equation error"
+                         + ("" if supply else f", carried by {' and '.join(depends)}")
+                         + (f"; no library effect ({', '.join(c.suggests)}) took it up" if c.suggests
+                            else "; no family of the library acts through these inputs") + also)})
+    return out, summary(corrs)
+
+
+def partial_projection(run: DoctorRun, finding) -> bool:
+    """True when ``finding`` (a pneumatic effect about to be kept) is only a partial projection
+    of what its place lacks: with it in the model, the flexible correction there still pays
+    (flexible.paying), carried by inputs that do not point to its family.  Then it is not
+    named; what it would have taken up is reported unexplained (flexible_unexplained).  The
+    chambers' counterpart of the joints' YARDSTICK_SHARE rule (search._keep_mechanical)."""
+    hyp = finding.scored.hyp
+    corrs, _, _ = corrections(run.exp, run.held, finding.scored.mods, block_samples(run.held))
+    for c in paying(corrs):
+        at = ("supply" in c.where) if hyp.family == "supply_droop" else bool(set(c.chambers) & set(hyp.chambers))
+        if at and "supply" not in c.where and finding.family not in c.suggests:
+            return True
+    return False

@@ -1,0 +1,212 @@
+"""The chambers' mass-flow equation error and the physical inputs a correction of it may use.
+
+A chamber's energy balance with a polytropic exponent n between 1 and 1.4 (paper 002 eq. 9,
+dp/dt = n / V (R T mdot - p dV/dt), solved for the mass flow) gives the net mass flow into it
+from the measured pressure and motion:
+
+    mdot_implied = (V dp/dt / n + p dV/dt) / (R T),
+
+while the calibrated model (valve orifices, papers 002 eqs. 6-8, 000 eq. 5, and the effects kept
+so far) says mdot_model.  Their difference, in block means (MECH_BLOCK_S: the means of a
+differentiated noisy signal), is the equation error a flexible correction is fitted to (Ljung
+1999, sec. 7.3: equation-error models).  The implied flow's integral over a block needs no
+derivative: sum V_mid dp / n + p_mid dV over the 1 ms steps.
+
+The correction's inputs are grouped by the physical quantity they carry; each group is the
+subsystem input the families of pneumatics.effects act through (docs/doctor.md):
+
+- ``command near null``: bumps of u - u_null times unit orifice flows from the supply and to
+  the room (an underlapped spool leaks where the command is near null);
+- ``pressure level``: p - p_room, p^2 - p_room^2 and a unit orifice to the room (leaks out);
+- ``p_a - p_b``: the cylinder's two chambers' pressure difference (a leak across the piston);
+- ``volume``: V dp/dt, p dV/dt and their low-passed histories (heat exchange, a wrong
+  polytropic exponent, a volume the model lacks);
+- ``command history``: the model's valve flow at the command low-passed or delayed, minus at
+  the command itself (spool dynamics, a line between valve and chamber);
+- ``valve opening``: the model's supply and exhaust flows, alone and times the pressure
+  (a valve whose areas change with pressure or opening: no library family);
+- the supply's common mode: d mdot_supply / d p_supply of every chamber times the total supply
+  flow and its low-passed histories (one pressure drop shared by all chambers).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import make_smoothing_spline
+from scipy.signal import lfilter
+
+from identification.base.smoothing import discrepancy_lambda
+
+from pneumatics.medium import orifice_flow
+from pneumatics.valve import valve_areas
+
+from .data import FINE_DT, Experiment
+from .pneumatic import ChamberModel, PneumaticMods, drive_side_lengths, effective_commands
+
+#: the groups of a chamber's correction, in the order the report lists them
+GROUPS = ("command near null", "pressure level", "p_a - p_b", "volume", "command history", "valve opening")
+#: widths [V] of the bumps in u - u_null: a narrow and a wide underlap (pneumatics.effects.valve_leak
+#: uses 0.6 V)
+NULL_WIDTHS_V = (0.3, 0.8)
+#: time constants [s] of the command's low-pass and its delays: spools of 10-80 ms, lines of
+#: 5-50 ms (pneumatics.effects.valve_dynamics and line_dynamics cover this range)
+HISTORY_TAUS_S = (0.01, 0.03, 0.08)
+HISTORY_DELAYS_S = (0.02, 0.05)
+#: time constants [s] of the volume group's histories: the gas-wall exchange of arm2's chambers
+#: relaxes in 0.1-1 s (hA 0.02-0.5 W/K, pneumatics.effects.heat_transfer)
+VOLUME_TAUS_S = (0.05, 0.3)
+#: ... and of the supply's: a regulator refilling a reservoir (Beater, Pneumatic Drives 2007, ch. 4)
+SUPPLY_TAUS_S = (0.05, 0.2, 0.6)
+
+
+@dataclass
+class FlowBlocks:
+    """Block means of one experiment: B blocks, C chambers."""
+
+    error: np.ndarray          # (B, C) mdot_implied - mdot_model [kg/s]
+    features: dict             # group -> (B, C, k) inputs of each chamber's correction
+    supply: np.ndarray         # (B, C, k) the supply's common-mode inputs, per chamber
+    sample: np.ndarray         # (B,) sample index at each block's centre
+    n_sub: int                 # fine steps per sample
+
+
+def lowpass(x: np.ndarray, tau_s: float, dt: float = FINE_DT) -> np.ndarray:
+    """First-order low-pass along axis 0 started at x[0] (exact for a held input)."""
+    a = np.exp(-dt / tau_s)
+    return lfilter([1 - a], [1, -a], x, axis=0, zi=a * x[:1])[0]
+
+
+def delayed(x: np.ndarray, delay_s: float, dt: float = FINE_DT) -> np.ndarray:
+    k = int(round(delay_s / dt))
+    return np.concatenate([np.repeat(x[:1], k, axis=0), x[:-k]]) if k else x
+
+
+class _Valves:
+    """The calibrated model's valve flows [kg/s] at given commands, on the 1 ms grid."""
+
+    def __init__(self, exp: Experiment, mods: PneumaticMods, p: np.ndarray):
+        tab = exp.robot.tables
+        self.tab, self.mods, self.p, self.gas = tab, mods, p, tab.gas
+        self.rows = tab.valve
+        self.ps = np.full((p.shape[0], 1), tab.supply_pa)
+        self._droop = float(mods.supply_droop_pa_per_kg_s)
+
+    def areas(self, u):
+        F, C = u.shape
+        a_s, a_e = valve_areas(u.ravel(), np.repeat(self.rows[None], F, 0).reshape(-1, 8))
+        a_s = a_s.reshape(F, C) * self.mods.supply_scale
+        a_e = a_e.reshape(F, C) * self.mods.exhaust_scale
+        leak_s, leak_e = self.mods.valve_leak_areas(u, self.rows[:, 0])
+        return a_s + leak_s, a_e + leak_e
+
+    def flows(self, u):
+        """(supply flow, exhaust flow), each (F, C) [kg/s], and d supply flow / d p_supply."""
+        a_s, a_e = self.areas(u)
+        ps = self.ps
+        if self._droop > 0:  # the supply pressure the model's own total supply flow leaves
+            m0 = orifice_flow(a_s, ps, self.p, self.gas)[0]
+            ps = ps - self._droop * np.maximum(m0, 0).sum(axis=1, keepdims=True)
+        m_s, d_ps, _ = orifice_flow(a_s, ps, self.p, self.gas)
+        m_e = orifice_flow(a_e, self.p, self.tab.room_pa, self.gas)[0]
+        return m_s, m_e, d_ps
+
+
+def smoothed_pressures(exp: Experiment) -> np.ndarray:
+    """(F, C) measured pressures on the 1 ms grid: a smoothing spline through the DAQ means at
+    the sensor's noise level (discrepancy principle, identification.base.smoothing), so that the
+    pressure change over a block carries little of the noise of its two end samples."""
+    out = np.empty((exp.fine_t.size, exp.p.shape[1]))
+    for c in range(exp.p.shape[1]):
+        lam = discrepancy_lambda(exp.t_sensor, exp.p[:, c])
+        out[:, c] = make_smoothing_spline(exp.t_sensor, exp.p[:, c], lam=lam)(exp.fine_t)
+    return out
+
+
+def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
+    """The equation error and the correction's inputs of ``exp`` under the chamber model
+    ``mods``, in means over ``block`` samples (blocks straddling a pooled join are dropped)."""
+    tab, gas = exp.robot.tables, exp.robot.tables.gas
+    S = exp.n_sub
+    F = exp.fine_t.size
+    C = tab.n_chambers
+    p = np.column_stack([np.interp(exp.fine_t, exp.t, exp.p_at_t[:, c]) for c in range(C)])
+    if mods.sensor_offset_pa is not None:
+        p = p - mods.sensor_offset_pa
+    model = ChamberModel(exp.robot, mods, 1)
+    vol = model.dead + tab.area * model.travel(drive_side_lengths(exp, mods))       # (F, C)
+    rt, n, room = model.rt, model.n, tab.room_pa
+    # per 1 ms step i -> i+1: midpoint values and increments
+    p_mid, v_mid = 0.5 * (p[1:] + p[:-1]), 0.5 * (vol[1:] + vol[:-1])
+    dp, dv = np.diff(p, axis=0) / FINE_DT, np.diff(vol, axis=0) / FINE_DT
+    implied = (v_mid * dp / n + p_mid * dv) / rt
+    valves = _Valves(exp, mods, p_mid)
+    u_eff = effective_commands(exp, mods)[: F - 1]
+    m_s, m_e, d_ps = valves.flows(u_eff)
+    leak_x = mods.external_leak_flow(p_mid, room, gas)[0]
+    m_model = m_s - m_e - leak_x
+    if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
+        m_ab = mods.piston_leak_flow(p_mid, room, gas)[0]
+        m_model = m_model.copy()
+        m_model[:, 0::2] -= m_ab
+        m_model[:, 1::2] += m_ab
+    feats = _chamber_features(exp, valves, u_eff, p_mid, v_mid, dp, dv, m_s, m_e, S)
+    sup = _supply_features(m_s, d_ps)
+    # block means over ``block`` samples = block * S fine steps, dropping those across a join
+    L = block * S
+    nb = (F - 1) // L
+    starts = np.arange(nb) * L
+    ok = np.ones(nb, bool)
+    for b in exp.breaks:
+        ok &= ~((starts <= b * S) & (b * S < starts + L + S))
+    idx = np.nonzero(ok)[0]
+
+    def bm(x):
+        y = x[: nb * L].reshape(nb, L, *x.shape[1:]).mean(axis=1)
+        return y[idx]
+    return FlowBlocks(bm(implied - m_model), {g: bm(v) for g, v in feats.items()}, bm(sup),
+                      (starts[idx] + L // 2) // S, S)
+
+
+def _chamber_features(exp, valves, u_eff, p, v, dp, dv, m_s, m_e, S) -> dict:
+    """group -> (F-1, C, k) inputs of each chamber's correction on the 1 ms grid."""
+    tab, gas = exp.robot.tables, exp.robot.tables.gas
+    room, ps = tab.room_pa, tab.supply_pa
+    u = np.repeat(exp.u, S, axis=0)[: p.shape[0]]
+    du = u - tab.valve[:, 0]
+    f_sup = orifice_flow(1.0, ps, p, gas)[0]
+    f_out = orifice_flow(1.0, p, room, gas)[0]
+    near = []
+    for w in NULL_WIDTHS_V:
+        bump = np.exp(-(du / w) ** 2)
+        near += [bump * f_sup, bump * f_out]
+    other = p.reshape(p.shape[0], -1, 2)[:, :, ::-1].reshape(p.shape)       # chamber b of a, a of b
+    cross = orifice_flow(1.0, p, other, gas)[0]
+    # the motion's compression p dV/dt and its histories; not V dp/dt, which carries the
+    # measured pressure's noise the target carries too (errors in variables)
+    pdv = p * dv
+    volume = [pdv] + [lowpass(pdv, t) - pdv for t in VOLUME_TAUS_S]
+    m0 = m_s - m_e
+    history = []
+    for t in HISTORY_TAUS_S:
+        a, b, _ = valves.flows(lowpass(u_eff, t))
+        history.append(a - b - m0)
+    for d in HISTORY_DELAYS_S:
+        a, b, _ = valves.flows(delayed(u_eff, d))
+        history.append(a - b - m0)
+    rel = (p - room) / (ps - room)
+    return {"command near null": np.stack(near, axis=2),
+            "pressure level": np.stack([p - room, (p ** 2 - room ** 2) / ps, f_out], axis=2),
+            "p_a - p_b": np.stack([p - other, cross], axis=2),
+            "volume": np.stack(volume, axis=2),
+            "command history": np.stack(history, axis=2),
+            "valve opening": np.stack([m_s, m_e, m_s * rel, m_e * rel], axis=2)}
+
+
+def _supply_features(m_s, d_ps) -> np.ndarray:
+    """(F-1, C, k): a supply pressure error common to all chambers, modelled as a constant, the
+    total supply flow and its low-passed histories, acting on each chamber through its own
+    d mdot_supply / d p_supply (a linearised orifice, paper 002 eq. 6)."""
+    total = np.maximum(m_s, 0).sum(axis=1, keepdims=True)                  # (F-1, 1)
+    drivers = [total] + [lowpass(total, t) for t in SUPPLY_TAUS_S]
+    return np.stack([d_ps * z for z in drivers], axis=2)

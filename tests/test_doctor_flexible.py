@@ -1,0 +1,149 @@
+"""The doctor's flexible mass-flow corrections (identification.doctor.valve_arm.flexible): which
+group of physical inputs carries a planted mass flow, silence on clean recordings, and an
+effect outside the library reported ``unexplained`` at its chamber rather than nothing."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from identification.doctor.valve_arm.calibrate import fit_chambers, pressure_sigma
+from identification.doctor.valve_arm.data import prepare
+from identification.doctor.valve_arm.flexible import (FLEX_FLOOR, SUPPLY_FLOOR, chamber_correction, paying,
+                                                      supply_correction)
+from identification.doctor.valve_arm.flow_error import flow_blocks
+from identification.doctor.valve_arm.pneumatic import PneumaticMods, Windows
+from identification.doctor.valve_arm.rules import HORIZON
+from pneumatics.recording import read_csv
+from pneumatics.robot import load_robot
+
+BLIND = Path(__file__).resolve().parents[2] / "shared" / "samples" / "arm2-blind"
+NULL = "case_8e12431d"
+needs_samples = pytest.mark.skipif(not BLIND.is_dir(), reason="shared/samples not beside the repo")
+
+
+@pytest.fixture(scope="module")
+def null_blocks():
+    """Block means of the published null sample's fitted and held-out recordings under the
+    chamber model calibrated on the fitted one (as the doctor calibrates it: its +-10 % valve
+    area and dead volume errors would otherwise be the largest mass-flow error), and the
+    prepared experiments."""
+    robot = load_robot("arm2")
+    exp = prepare(robot, read_csv(BLIND / f"{NULL}.csv"))
+    held = prepare(robot, read_csv(BLIND / f"{NULL}_heldout.csv"))
+    win = Windows.tile(len(exp.t), HORIZON, breaks=exp.breaks)
+    mods, _ = fit_chambers(exp, win, PneumaticMods.nominal(robot.tables.n_chambers), pressure_sigma(exp))
+    return robot, exp, held, flow_blocks(exp, mods, 10), flow_blocks(held, mods, 10)
+
+
+def _sample_means(exp, blocks, x):
+    """Block means (B, C) of a per-sample quantity x (N, C) over the blocks' samples."""
+    half = 5
+    return np.stack([x[max(k - half, 0): k + half].mean(axis=0) for k in blocks.sample])
+
+
+def _with_term(tr, ho, exp, held, fn, c, size=1.5):
+    """Copies of the blocks with fn(exp) (N, C) added to chamber c's equation error, scaled to
+    ``size`` x the error's RMS there."""
+    import dataclasses
+    t_tr = _sample_means(exp, tr, fn(exp))[:, c]
+    t_ho = _sample_means(held, ho, fn(held))[:, c]
+    k = size * np.sqrt(np.mean(tr.error[:, c] ** 2)) / np.sqrt(np.mean(t_tr ** 2))
+    e_tr, e_ho = tr.error.copy(), ho.error.copy()
+    e_tr[:, c] += k * t_tr
+    e_ho[:, c] += k * t_ho
+    return dataclasses.replace(tr, error=e_tr), dataclasses.replace(ho, error=e_ho)
+
+
+@needs_samples
+@pytest.mark.parametrize("group, term", [
+    # a laminar-like leak to the room growing as (p - p_room)^0.7: not one of the inputs' forms
+    ("pressure level", lambda e: -np.maximum(e.p - e.robot.tables.room_pa, 0.0) ** 0.7),
+    # an underlap feeding the chamber from the supply near null, narrower than the bumps and laminar
+    ("command near null", lambda e: np.exp(-((e.u - e.robot.tables.valve[:, 0]) / 0.45) ** 2)
+     * (e.robot.tables.supply_pa - e.p)),
+])
+def test_the_group_that_carries_a_planted_mass_flow_is_found(null_blocks, group, term):
+    robot, exp, held, tr, ho = null_blocks
+    c = 2  # elbow a
+    tr2, ho2 = _with_term(tr, ho, exp, held, term, c)
+    corr = chamber_correction(tr2, ho2, c, {"actuator": "elbow", "chamber": "a"})
+    assert corr.gain > 0.5  # the planted term is 1.5 x the error's RMS: most of it is recovered
+    # under tracking control the commands stay near null most of the time, so a leak to the room
+    # and an underlap leak are both taken up by either group (seen: 0.77 and 0.74 alone): the
+    # correction names both, and the fits of their families decide (flex_check.suggested_candidates)
+    assert group in corr.depends_on
+    assert not {"p_a - p_b", "volume", "command history"} & set(corr.depends_on)
+    # the other chambers carry nothing planted: their corrections stay below the floor
+    others = [chamber_correction(tr2, ho2, k, {}) for k in range(4) if k != c]
+    assert max(o.best_group_gain for o in others) < FLEX_FLOOR
+    assert [p.where for p in paying([corr, *others, supply_correction(tr2, ho2)])] == [corr.where]
+
+
+@needs_samples
+def test_a_common_supply_term_is_found_by_the_supply_correction(null_blocks):
+    """A supply pressure sagging with the total supply flow's 0.1 s history acts on every
+    filling chamber through its own d mdot / d p_supply: the supply's common-mode correction
+    takes it up at every chamber."""
+    import dataclasses
+    robot, exp, held, tr, ho = null_blocks
+
+    def sag(b):  # the supply inputs are d mdot_c/dp_s x (total flow and its histories)
+        return -(0.6 * b.supply[:, :, 1] + 0.4 * b.supply[:, :, 2])
+    k = 2.0 * np.sqrt(np.mean(tr.error ** 2)) / np.sqrt(np.mean(sag(tr) ** 2))
+    tr2 = dataclasses.replace(tr, error=tr.error + k * sag(tr))
+    ho2 = dataclasses.replace(ho, error=ho.error + k * sag(ho))
+    s = supply_correction(tr2, ho2)
+    # Huber's weights take the peaks of the sag (a valve opening wide) as outliers: part of it stays
+    assert s.gain > 0.3 and min(s.per_chamber.values()) > SUPPLY_FLOOR
+    assert s.suggests == ["supply_droop"]
+    # the chambers' corrections are fitted to what the common mode leaves: none stands out
+    rest_tr = dataclasses.replace(tr2, error=tr2.error - s.fitted_train)
+    rest_ho = dataclasses.replace(ho2, error=ho2.error - s.fitted_h)
+    chambers = [chamber_correction(rest_tr, rest_ho, c, {"c": c}) for c in range(4)]
+    assert [p.where for p in paying([*chambers, s])] == [{"supply": "all"}]
+    assert supply_correction(tr, ho).gain < SUPPLY_FLOOR  # and nothing without it
+
+
+@needs_samples
+def test_a_clean_recording_leaves_no_correction_paying(null_blocks):
+    robot, exp, held, tr, ho = null_blocks
+    corrs = [chamber_correction(tr, ho, c, {"c": c}) for c in range(4)] + [supply_correction(tr, ho)]
+    assert paying(corrs) == []
+    assert max(c.best_group_gain for c in corrs[:4]) < FLEX_FLOOR and corrs[4].gain < SUPPLY_FLOOR
+
+
+def _diagnose_files(truth):
+    from identification.doctor.valve_arm.diagnose import diagnose
+    return diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
+                    [read_csv(truth["recordings"]["heldout"])])
+
+
+@pytest.mark.slow
+def test_a_clean_pneumasim_recording_is_silent(tmp_path):
+    """pneumasim's own simulator, no effect, 3 % parameter errors: no finding, no unexplained
+    entry, and no flexible correction pays."""
+    from scenarios._cases import make_case
+    rep = _diagnose_files(make_case(tmp_path, 21, [], seconds=40.0, heldout_seconds=20.0))
+    assert rep["findings"] == [] and rep["unexplained"] == []
+    flex = rep["diagnostics"]["flexible_corrections"]
+    assert max(v["best_group_gain"] for k, v in flex.items() if k != "supply") < FLEX_FLOOR
+    assert flex["supply"]["heldout_gain"] < SUPPLY_FLOOR
+
+
+@pytest.mark.slow
+def test_a_valve_curve_outside_the_library_is_unexplained_at_its_chamber(tmp_path):
+    """elbow a's valve opens as the 2.2 power of the command past its dead band instead of the
+    model's 1.3 (pneumatics.valve.valve_areas): no family of the library changes a valve's
+    curve, and the calibrated area scale fits it only on average.  The doctor names nothing
+    there and reports the chamber's mass flow unexplained, carried by the valve opening
+    (seen 2026-11-25: 89 % of the held-out equation error, no finding)."""
+    from scenarios._cases import _record, _write, perturbed_robot
+    robot, _ = perturbed_robot(np.random.default_rng(11), 0.03)
+    robot.tables.valve[2, 5] = 2.2                       # elbow a: the ramp's exponent
+    paths = _write(tmp_path, "case", _record(robot, None, 11, 40.0, 20.0))
+    rep = _diagnose_files({"recordings": paths})
+    assert not [f for f in rep["findings"] if f["where"] == {"actuator": "elbow", "chamber": "a"}]
+    (u,) = [u for u in rep["unexplained"] if u["where"] == {"actuator": "elbow", "chamber": "a"}]
+    assert u["residual"] == "mass flow" and u["share_of_residual"] > FLEX_FLOOR
+    assert "valve opening" in u["depends_on"]
+    assert rep["verdict"] == "missing_physics"
