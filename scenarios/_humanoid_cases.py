@@ -32,7 +32,7 @@ import functools
 
 import numpy as np
 
-from pneumatics.effects.family import place_names, where_of
+from pneumatics.effects.family import place_names
 from pneumatics.robot import load_robot
 
 from ._cases import BENCHMARK_FAMILIES, effects_of, truth_of
@@ -115,7 +115,3 @@ def make_case(seed: int, families: list[str], seconds: float, heldout_seconds: f
              "scale": scale, "parameter_factors": factors, "perturbation_fraction": PARAM_ERROR,
              "references": [k, (k + 1) % len(refs)]}
     return main, held, truth
-
-
-__all__ = ["CONCEAL_SCALE", "MODEL", "PARAM_ERROR", "controller", "draw_on_humanoid", "humanoid_families",
-           "make_case", "perturbed_humanoid", "where_of"]

@@ -112,9 +112,11 @@ def arm2_timing_case(case: dict) -> dict:
     from ._cases import make_case
 
     with tempfile.TemporaryDirectory(prefix="arm2_timing_") as work:
-        truth = make_case(Path(work), case["seed"], [], seconds=case["seconds"], heldout_seconds=case["heldout_seconds"])
+        truth = make_case(Path(work), case["seed"], [], seconds=case["seconds"],
+                          heldout_seconds=case["heldout_seconds"])
+        recs = {part: read_csv(path) for part, path in truth["recordings"].items()}
         t0 = time.perf_counter()
-        diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])], [read_csv(truth["recordings"]["heldout"])])
+        diagnose(load_robot("arm2"), [recs["main"]], [recs["heldout"]])
         seconds = time.perf_counter() - t0
     return {"chambers": ARM2_CHAMBERS, "seconds": seconds, "peak_memory_mib": _peak_mib()}
 

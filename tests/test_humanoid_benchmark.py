@@ -51,3 +51,26 @@ def test_fast_humanoid38_benchmark(tmp_path, monkeypatch):
     for r in rows:
         assert (tmp_path / "cases" / r["case"] / "report.json").is_file()
     assert (tmp_path / "doctor_time.png").stat().st_size > 5_000
+
+
+def test_metrics_from_hand_made_rows_are_strict_and_keep_the_arm2_time():
+    """A right chamber case, a joint case named at the wrong joint, a null case with a finding."""
+    from scenarios.doctor_benchmark_humanoid38 import metrics
+
+    def row(seed, effects, findings, unexplained=()):
+        return {"seed": seed, "kind": "single" if effects else "null",
+                "families": [e["family"] for e in effects] or ["none"], "effects": effects,
+                "findings": findings, "unexplained": list(unexplained), "lenient_effect_ok": bool(findings),
+                "lenient_location_ok": bool(findings), "seconds": 100.0, "generate_seconds": 5.0,
+                "peak_memory_mib": 900.0}
+
+    leak = {"family": "valve_leak", "where": {"actuator": "left_elbow", "chamber": "a"}}
+    visc = {"family": "viscous_friction", "where": {"joint": "right_knee"}}
+    rows = [row(1, [leak], [{"effect": "valve_leak", "where": leak["where"]}]),
+            row(2, [visc], [{"effect": "viscous_friction", "where": {"joint": "left_knee"}}]),
+            row(3, [], [{"effect": "supply_droop", "where": {"supply": "all"}}])]
+    m = metrics(rows, ["valve_leak", "viscous_friction"], {"seconds": 8.0, "peak_memory_mib": 1200.0})
+    assert m["strict_effect_accuracy"] == 1.0 and m["strict_location_accuracy"] == 0.5
+    assert m["null_false_discovery_rate"] == 1.0 and m["silent_miss_rate"] == 0.0
+    assert m["strict_location_accuracy.viscous_friction"] == 0.0
+    assert m["peak_memory_mib"] == 1200.0 and m["arm2_doctor_seconds"] == 8.0 and m["seeds"] == "1,2,3"
