@@ -10,16 +10,13 @@ humanoid38: each valve's supply and exhaust areas, each chamber's dead volume, e
 mass and inertia (one factor per body).
 
 **Concealment** (kept simple, no search): a hidden effect's parameters are the family's own
-draw (``Family.draw``: the magnitudes of the arm2 blind benchmark, where its concealment
-halving keeps the nominal model's held-out R^2 >= 0.9) times a scale drawn uniformly in
-CONCEAL_SCALE = [0.25, 0.5].  Why that range: humanoid38's actuators are arm2's in size
-(displacements of 1e-5..1e-4 m^3/rad, the same valves), so an effect of arm2's size is as
-visible on one humanoid chamber as on an arm2 chamber, and arm2's concealment search ends at
-scale 1 or 0.5 for most families; a quarter to a half keeps an effect small enough that the
-nominal model is still a fair fit of the other 75 chambers yet large enough that the doctor
-can see it on its own chamber or joint.  ``nominal_r2_min`` (the held-out R^2 of the true
-model without the effects, the doctor's own restarted replays) is not computed: on 76 chambers
-it would cost about as much as the doctor.
+draw (``Family.draw``: the magnitudes the arm2 case maker starts its concealment halving from)
+times a scale drawn uniformly in CONCEAL_SCALE = [0.25, 0.5], i.e. one to two of arm2's
+halvings.  humanoid38's actuators are arm2's kind (cylinders and vanes, valve areas within a
+factor of five of arm2's), so such an effect is small against the whole robot yet meant to
+show on its own chamber or joint.  Whether it is
+concealed (the nominal model's held-out R^2 >= 0.9) is not checked: on 76 chambers the
+restarted replays cost about as much as the doctor (docs/humanoid_doctor.md).
 
 The robot tracks one of humanoid38's standard references under the calibrated PIDF (what
 scenarios/humanoid38_tracking.py does with the fast valve calibration): the controller and the
