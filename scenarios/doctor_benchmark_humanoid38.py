@@ -83,7 +83,8 @@ def humanoid_case(case: dict) -> dict:
     t0 = time.perf_counter()
     report = diagnose(load_robot(MODEL), [main_rec], [held])
     seconds = time.perf_counter() - t0
-    report.pop("_plot", None)
+    for private in [k for k in report if k.startswith("_")]:  # replays and the fitted model: not JSON
+        report.pop(private)
     lenient = judge(truth["effects"], report)
     return {"case": f"case_{case['seed']}", "seed": case["seed"], "kind": case_kind(truth["families"]),
             "families": truth["families"], "effects": truth["effects"], "truth": truth,
