@@ -157,6 +157,8 @@ def plot_doctor_time(ctx, rows: list[dict], arm2: dict, seconds: float, heldout_
     ax.plot([ARM2_CHAMBERS, HUMANOID_CHAMBERS], [arm2["seconds"], float(np.median(hum))], "k:", lw=1)
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ax.set_xticks([ARM2_CHAMBERS, HUMANOID_CHAMBERS], [str(ARM2_CHAMBERS), str(HUMANOID_CHAMBERS)])
+    ax.minorticks_off()
     ax.set_xlabel("chambers")
     ax.set_ylabel("doctor time [s]")
     ax.set_title(f"arm doctor time, {seconds:.0f} s + {heldout_s:.0f} s recordings", fontsize=10)
