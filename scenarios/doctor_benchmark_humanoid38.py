@@ -1,0 +1,186 @@
+"""The arm doctor on concealed effects at random places of humanoid38 (issue 17, item 3): 76
+chambers on 38 joints, each case a recording to fit and a held-out one under the calibrated
+PIDF, with hidden effects drawn from a seed (scenarios/_humanoid_cases.py: family, place,
+magnitude), +-3 % errors in the nominal valve areas, dead volumes and masses, and sensor
+noise.  The doctor (identification/doctor/valve_arm) is given the nominal humanoid38 and the
+two recordings; its answers are compared with the truth.
+
+Plan (full): every family the registry can place on humanoid38 twice, 4 null cases and 3
+pairs, 60 s + 30 s recordings, seeds from ``PNEUMASIM_HUMANOID_SEED`` (the first seed, default
+7000; a later, fresh run gives another one).  ``--fast`` (CI): a null case, a chamber effect
+(valve_leak) and a joint effect (viscous_friction), 20 s + 10 s, fixed seeds.
+
+Metrics: the strict ones of scenarios/_generalization_metrics.py (``strict_effect_accuracy``,
+``strict_location_accuracy``: the first finding's place is exactly the hidden chamber or
+joint, ``null_false_discovery_rate``, ``silent_miss_rate``, per family), the lenient ones of
+the development sets, ``seconds_per_case`` (the doctor alone), ``generate_seconds_per_case``
+and ``peak_memory_mib`` (the largest ru_maxrss of the sweep workers after their cases: the
+process's peak, recordings and doctor together).  doctor_time.png: the doctor's seconds
+against the number of chambers, arm2 (4, a null case of the same length) and humanoid38 (76,
+every case); no subset of humanoid38 (the doctor takes a whole robot model, and there is no
+restricted humanoid38 model).
+
+Cases run through :func:`workflow.sweep.sweep` (``PNEUMASIM_WORKERS=N``); finished cases are
+kept in ``<out>/sweep/cases/`` (a rerun resumes).  Outputs: metrics.json, cases.json,
+cases/<case>/report.json and truth.json.
+"""
+from __future__ import annotations
+
+import os
+import resource
+import time
+
+import numpy as np
+
+from pneumatics.io import atomic_write_json
+from workflow.sweep import options_from_env, raise_on_failure, sweep
+
+from ._benchmark import judge, print_cases
+from ._generalization_metrics import case_kind, generalization_metrics
+from .common import main
+
+SUMMARY = "arm doctor on concealed effects at random places of humanoid38: strict metrics, time"
+RESUMABLE = True
+
+SEED_ENV = "PNEUMASIM_HUMANOID_SEED"
+#: two-effect cases: a chamber effect with a joint effect, a sensor with a valve, two joints' kinds
+PAIRS = (["valve_leak", "coulomb_friction"], ["pressure_sensor_offset", "valve_hysteresis"],
+         ["viscous_friction", "piston_leak"])
+ARM2_CHAMBERS, HUMANOID_CHAMBERS = 4, 76
+
+
+def plan(fast: bool) -> tuple[list, float, float]:
+    """[(seed, [families])], main seconds, held-out seconds."""
+    if fast:
+        return [(701, []), (702, ["valve_leak"]), (703, ["viscous_friction"])], 20.0, 10.0
+    from ._humanoid_cases import humanoid_families
+
+    seed = int(os.environ.get(SEED_ENV, "7000"))
+    cases = []
+    for fam in humanoid_families():
+        cases += [(seed, [fam]), (seed + 1, [fam])]
+        seed += 2
+    cases += [(seed + k, []) for k in range(4)]
+    seed += 4
+    cases += [(seed + k, list(pair)) for k, pair in enumerate(PAIRS)]
+    return cases, 60.0, 30.0
+
+
+def _peak_mib() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: KiB
+
+
+def humanoid_case(case: dict) -> dict:
+    """One case (in any sweep worker): make the recordings, run the doctor, judge."""
+    from identification.doctor.valve_arm.diagnose import diagnose
+    from pneumatics.robot import load_robot
+
+    from ._humanoid_cases import MODEL, make_case
+
+    t0 = time.perf_counter()
+    main_rec, held, truth = make_case(case["seed"], case["families"], case["seconds"], case["heldout_seconds"])
+    generate_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    report = diagnose(load_robot(MODEL), [main_rec], [held])
+    seconds = time.perf_counter() - t0
+    for private in [k for k in report if k.startswith("_")]:  # replays and the fitted model: not JSON
+        report.pop(private)
+    lenient = judge(truth["effects"], report)
+    return {"case": f"case_{case['seed']}", "seed": case["seed"], "kind": case_kind(truth["families"]),
+            "families": truth["families"], "effects": truth["effects"], "truth": truth,
+            "verdict": report["verdict"], "named": [f["effect"] for f in report["findings"]],
+            "findings": [_finding(f) for f in report["findings"]], "unexplained": report["unexplained"],
+            "lenient_effect_ok": lenient["family_ok"], "lenient_location_ok": lenient["location_ok"],
+            "seconds": seconds, "generate_seconds": generate_s, "peak_memory_mib": _peak_mib(),
+            "chambers": HUMANOID_CHAMBERS, "report": report}
+
+
+def _finding(f: dict) -> dict:
+    keys = ("effect", "where", "parameters", "alternatives", "alternative_places", "inclusion_probability",
+            "heldout_nrmse", "heldout_nrmse_in_regime")
+    return {k: f[k] for k in keys if k in f}
+
+
+def arm2_timing_case(case: dict) -> dict:
+    """The doctor's seconds on an arm2 null case of the same lengths (the plot's 4-chamber point)."""
+    import tempfile
+    from pathlib import Path
+
+    from identification.doctor.valve_arm.diagnose import diagnose
+    from pneumatics.recording import read_csv
+    from pneumatics.robot import load_robot
+
+    from ._cases import make_case
+
+    with tempfile.TemporaryDirectory(prefix="arm2_timing_") as work:
+        truth = make_case(Path(work), case["seed"], [], seconds=case["seconds"],
+                          heldout_seconds=case["heldout_seconds"])
+        recs = {part: read_csv(path) for part, path in truth["recordings"].items()}
+        t0 = time.perf_counter()
+        diagnose(load_robot("arm2"), [recs["main"]], [recs["heldout"]])
+        seconds = time.perf_counter() - t0
+    return {"chambers": ARM2_CHAMBERS, "seconds": seconds, "peak_memory_mib": _peak_mib()}
+
+
+def sweep_case(case: dict) -> dict:
+    """The sweep's function: a humanoid38 case or the arm2 timing case."""
+    return arm2_timing_case(case) if case.get("arm2_timing") else humanoid_case(case)
+
+
+def metrics(rows: list[dict], families: list[str], arm2: dict) -> dict:
+    m = generalization_metrics(rows, families)
+    m["peak_memory_mib"] = max([r["peak_memory_mib"] for r in rows] + [arm2["peak_memory_mib"]])
+    m["arm2_doctor_seconds"] = arm2["seconds"]
+    m["seeds"] = ",".join(str(r["seed"]) for r in rows)
+    return m
+
+
+def write_cases(ctx, rows: list[dict]) -> None:
+    """cases/<case>/report.json and truth.json; cases.json without the reports."""
+    for r in rows:
+        folder = ctx.out / "cases" / r["case"]
+        folder.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(folder / "report.json", r["report"])
+        atomic_write_json(folder / "truth.json", r["truth"])
+    atomic_write_json(ctx.out / "cases.json", [{k: v for k, v in r.items() if k not in ("report", "truth")}
+                                               for r in rows])
+
+
+def plot_doctor_time(ctx, rows: list[dict], arm2: dict, seconds: float, heldout_s: float) -> None:
+    """doctor_time.png: the doctor's seconds against the number of chambers (log-log)."""
+    from .common import plt
+
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    hum = [r["seconds"] for r in rows]
+    ax.scatter([HUMANOID_CHAMBERS] * len(hum), hum, label=f"humanoid38 ({len(hum)} cases)", color="C0")
+    ax.scatter([ARM2_CHAMBERS], [arm2["seconds"]], label="arm2 (a null case)", color="C1")
+    ax.plot([ARM2_CHAMBERS, HUMANOID_CHAMBERS], [arm2["seconds"], float(np.median(hum))], "k:", lw=1)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xticks([ARM2_CHAMBERS, HUMANOID_CHAMBERS], [str(ARM2_CHAMBERS), str(HUMANOID_CHAMBERS)])
+    ax.minorticks_off()
+    ax.set_xlabel("chambers")
+    ax.set_ylabel("doctor time [s]")
+    ax.set_title(f"arm doctor time, {seconds:.0f} s + {heldout_s:.0f} s recordings", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    ctx.savefig(fig, "doctor_time.png")
+
+
+def run(ctx):
+    cases, seconds, held_s = plan(ctx.fast)
+    specs = [{"seed": s, "families": f, "seconds": seconds, "heldout_seconds": held_s} for s, f in cases]
+    specs.append({"arm2_timing": True, "seed": 1, "seconds": seconds, "heldout_seconds": held_s})
+    results = sweep(sweep_case, specs, out=ctx.out / "sweep", **options_from_env())
+    raise_on_failure(results, "doctor_benchmark_humanoid38")
+    *rows, arm2 = [r.result for r in results]
+    rows = list(rows)
+    print_cases(rows)
+    write_cases(ctx, rows)
+    plot_doctor_time(ctx, rows, arm2, seconds, held_s)
+    families = sorted({f for _, fams in cases for f in fams})
+    return metrics(rows, families, arm2)
+
+
+if __name__ == "__main__":
+    main(__name__)

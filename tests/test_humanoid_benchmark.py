@@ -1,0 +1,76 @@
+"""The humanoid38 doctor benchmark (issue 17, item 3): its case maker and its --fast run."""
+import json
+
+import numpy as np
+import pytest
+
+from pneumatics.effects.family import place_names
+from pneumatics.robot import load_robot
+from scenarios._humanoid_cases import PARAM_ERROR, draw_on_humanoid, humanoid_families, perturbed_humanoid
+
+
+def test_parameter_errors_reach_every_actuator_and_body_within_3_percent():
+    nominal = load_robot("humanoid38")
+    robot, factors = perturbed_humanoid(np.random.default_rng(5))
+    area = lambda r: np.array([a.valve_a.supply_area_max_m2 for a in r.fluid.actuators])  # noqa: E731
+    dead = lambda r: np.array([a.dead_volume_b_m3 for a in r.fluid.actuators])  # noqa: E731
+    for get in (area, dead):
+        ratio = get(robot) / get(nominal)
+        assert np.all(np.abs(ratio - 1) <= PARAM_ERROR) and np.std(ratio) > 0.005  # each its own error
+    massive = [i for i in range(1, nominal.model.nbody) if nominal.model.body_mass[i] > 0]
+    assert len(factors) == len(massive) > 30
+    assert np.allclose(robot.model.body_mass[massive] / nominal.model.body_mass[massive], list(factors.values()))
+
+
+def test_every_family_draws_a_place_of_humanoid38():
+    robot = load_robot("humanoid38")
+    fams = humanoid_families()
+    assert {"valve_leak", "coulomb_friction", "pressure_sensor_offset", "supply_droop"} <= set(fams)
+    rng = np.random.default_rng(0)
+    for name in fams:
+        fam, place, _ = draw_on_humanoid(name, rng, robot)
+        assert place in place_names(robot, fam.place_kind)
+
+
+@pytest.mark.slow
+def test_fast_humanoid38_benchmark(tmp_path, monkeypatch):
+    """--fast (issue 17: in CI): a null case, a chamber and a joint effect, 20 s + 10 s, and
+    the arm2 timing case, in this process."""
+    from scenarios.common import run_scenario
+
+    monkeypatch.setenv("PNEUMASIM_BACKEND", "inline")
+    m = run_scenario("doctor_benchmark_humanoid38", tmp_path, fast=True, quiet=True)
+    assert m["cases"] == 3 and m["null_cases"] == 1 and m["single_cases"] == 2
+    for key in ("strict_effect_accuracy", "strict_location_accuracy", "null_false_discovery_rate",
+                "silent_miss_rate", "lenient_effect_accuracy"):
+        assert 0.0 <= m[key] <= 1.0, key
+    assert m["seconds_per_case"] > 0 and m["arm2_doctor_seconds"] > 0
+    assert 100 < m["peak_memory_mib"] < 4096  # the issue's budget: 4 GiB
+    rows = json.loads((tmp_path / "cases.json").read_text())
+    assert [r["families"] for r in rows] == [["none"], ["valve_leak"], ["viscous_friction"]]
+    for r in rows:
+        assert (tmp_path / "cases" / r["case"] / "report.json").is_file()
+    assert (tmp_path / "doctor_time.png").stat().st_size > 5_000
+
+
+def test_metrics_from_hand_made_rows_are_strict_and_keep_the_arm2_time():
+    """A right chamber case, a joint case named at the wrong joint, a null case with a finding."""
+    from scenarios.doctor_benchmark_humanoid38 import metrics
+
+    def row(seed, effects, findings, unexplained=()):
+        return {"seed": seed, "kind": "single" if effects else "null",
+                "families": [e["family"] for e in effects] or ["none"], "effects": effects,
+                "findings": findings, "unexplained": list(unexplained), "lenient_effect_ok": bool(findings),
+                "lenient_location_ok": bool(findings), "seconds": 100.0, "generate_seconds": 5.0,
+                "peak_memory_mib": 900.0}
+
+    leak = {"family": "valve_leak", "where": {"actuator": "left_elbow", "chamber": "a"}}
+    visc = {"family": "viscous_friction", "where": {"joint": "right_knee"}}
+    rows = [row(1, [leak], [{"effect": "valve_leak", "where": leak["where"]}]),
+            row(2, [visc], [{"effect": "viscous_friction", "where": {"joint": "left_knee"}}]),
+            row(3, [], [{"effect": "supply_droop", "where": {"supply": "all"}}])]
+    m = metrics(rows, ["valve_leak", "viscous_friction"], {"seconds": 8.0, "peak_memory_mib": 1200.0})
+    assert m["strict_effect_accuracy"] == 1.0 and m["strict_location_accuracy"] == 0.5
+    assert m["null_false_discovery_rate"] == 1.0 and m["silent_miss_rate"] == 0.0
+    assert m["strict_location_accuracy.viscous_friction"] == 0.0
+    assert m["peak_memory_mib"] == 1200.0 and m["arm2_doctor_seconds"] == 8.0 and m["seeds"] == "1,2,3"
