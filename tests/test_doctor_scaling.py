@@ -39,3 +39,37 @@ def test_groups_are_disjoint_and_few_on_the_humanoid():
         assert len({(h.family, tuple(p[0] for p in h.params)) for h in g}) == 1
     # about one group per family and form, against ~700 hypotheses
     assert len(hyps) > 600 and len(groups) < 20
+
+
+def test_effect_fits_at_one_joint_equal_the_whole_fit():
+    from identification.doctor.valve_arm.hypotheses import mechanical_hypotheses
+    from identification.doctor.valve_arm.joint_fit import confined_joint, fit_effect
+    from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
+    from identification.doctor.valve_arm.screening import stack_terms, torque_rms
+    from identification.doctor.valve_arm.search import crossval_torque
+    from identification.doctor.valve_arm.screening import Scored
+
+    robot = load_robot("arm2")
+    exp = prepare(robot, read_csv(SAMPLE).slice(0, 30))
+    td = torque_data(exp)
+    base = fit_rigid_body(td)
+    hyps = mechanical_hypotheses(robot, exp, td)
+    confined = 0
+    for h in hyps:
+        extra, names, bounds = stack_terms(None, h.regressor(exp, td), h)
+        whole, local = fit_rigid_body(td, extra, names, bounds), fit_effect(td, extra, names, bounds, base, 0)
+        confined += confined_joint(extra, td.valid) is not None
+        assert np.allclose(whole.values, local.values, rtol=0, atol=1e-9), h.label
+        assert abs(whole.rss - local.rss) <= 1e-9 * whole.rss
+        k = len(h.params)
+        assert np.allclose(whole.stderr[-k:], local.stderr[-k:], rtol=1e-9), h.label
+        # the two-fold cross-validation with shared folds, against the whole fits fold by fold
+        s, block = Scored(h, 0.0), 10
+        crossval_torque(s, exp, td, None, block, {})
+        before = after = 0.0
+        for fit_on, test_on in td.two_fold():
+            b = fit_rigid_body(fit_on)
+            before = before + torque_rms(test_on, b, None, block) ** 2
+            after = after + torque_rms(test_on, fit_rigid_body(fit_on, extra, names, bounds), extra, block) ** 2
+        assert np.allclose(s.heldout_after, np.sqrt(after / 2), rtol=1e-9) and np.allclose(s.heldout_before, np.sqrt(before / 2))
+    assert confined >= len(hyps) // 2  # most act at one joint: the split is what is being tested

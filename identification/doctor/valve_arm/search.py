@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .flex_check import partial_projection, suggested_candidates
+from .joint_fit import fit_effect
 from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
 from .data import Experiment
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
@@ -125,10 +126,11 @@ def search_mechanical(run: DoctorRun, say) -> None:
                 and not (h.family == "pressure_sensor_offset" and h.where["actuator"] in offset_acts)]
         scored, base = score_mechanical(run.td, exp, hyps, run.base_extra)
         block = mech_block(held)
+        folds = {}  # the cross-validation's folds and base fits, shared by this round's hypotheses
         base_h = torque_rms(run.td_h, base, None if run.base_extra is None
                             else stacked_regressors(run.kept_mech, held, run.td_h), block)
         for s in scored:
-            heldout_torque(s, held, run.td_h, run.kept_mech, run.base_extra, base_h, block, exp, run.td)
+            heldout_torque(s, held, run.td_h, run.kept_mech, run.base_extra, base_h, block, exp, run.td, folds)
         finding = accept_best(scored, MECH_KEEP)
         if finding is None:
             break
@@ -217,29 +219,45 @@ def worth_fitting(cands: list) -> list:
     return out
 
 
-def heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block, exp=None, td=None):
+def heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block, exp=None, td=None, folds=None):
     """Held-out torque RMS per joint before (``base_h``) and after s's fit, in ``block`` means.
 
     Where the held-out data never enter the effect's regime (its regressors are zero on every
     usable held-out sample: a bumper the held-out motions never reach) they can neither
     confirm nor refute it; then, given the training data (``exp``, ``td``), the same numbers
-    come from a two-fold cross-validation on them (each half predicted by a fit to the other).
+    come from a two-fold cross-validation on them (each half predicted by a fit to the other;
+    ``folds``: a dict the round's hypotheses share, holding the folds and their base fits).
     """
     ex = s.hyp.regressor(held, td_h)
     if exp is not None and not np.any(ex[td_h.valid]):
-        crossval_torque(s, exp, td, base_extra, block)
+        crossval_torque(s, exp, td, base_extra, block, folds)
         return
     full = ex if base_extra is None else np.concatenate([stacked_regressors(kept_mech, held, td_h), ex], axis=2)
     s.heldout_before, s.heldout_after = base_h, torque_rms(td_h, s.fit, full, block)
 
 
-def crossval_torque(s: Scored, exp, td, base_extra, block):
-    extra, names, bounds = stack_terms(base_extra, s.hyp.regressor(exp, td), s.hyp)
-    before, after = 0.0, 0.0
+def crossval_folds(td, base_extra, block) -> list:
+    """[(fit on, test on, the base fit on the first, its RMS per joint on the second)] of the
+    two-fold split of ``td``: computed once for every hypothesis a round cross-validates."""
+    out = []
     for fit_on, test_on in td.two_fold():
         base = fit_rigid_body(fit_on, *base_extra) if base_extra else fit_rigid_body(fit_on)
-        before = before + torque_rms(test_on, base, None if base_extra is None else base_extra[0], block) ** 2
-        after = after + torque_rms(test_on, fit_rigid_body(fit_on, extra, names, bounds), extra, block) ** 2
+        out.append((fit_on, test_on, base, torque_rms(test_on, base, None if base_extra is None else base_extra[0], block)))
+    return out
+
+
+def crossval_torque(s: Scored, exp, td, base_extra, block, folds: dict | None = None):
+    extra, names, bounds = stack_terms(base_extra, s.hyp.regressor(exp, td), s.hyp)
+    if folds is None:
+        folds = {}
+    if "folds" not in folds:
+        folds["folds"] = crossval_folds(td, base_extra, block)
+    base_cols = 0 if base_extra is None else base_extra[0].shape[2]
+    before, after = 0.0, 0.0
+    for fit_on, test_on, base, base_rms in folds["folds"]:
+        before = before + base_rms ** 2
+        # the effect at its joint alone where it acts at one (joint_fit): the same fit
+        after = after + torque_rms(test_on, fit_effect(fit_on, extra, names, bounds, base, base_cols), extra, block) ** 2
     s.heldout_before, s.heldout_after = np.sqrt(before / 2), np.sqrt(after / 2)
     s.judged_by = "two-fold cross-validation on the training data (the held-out motions never reach its regime)"
 
