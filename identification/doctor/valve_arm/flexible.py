@@ -181,8 +181,10 @@ def corrections(exp, held, mods, block: int) -> tuple[list, FlowBlocks, FlowBloc
 #: as paying.  Measured on clean recordings (2026-11-25): the variant simulator's nulls
 #: (development seeds 7007, 7008), the published null sample and a pneumasim null (seed 21)
 #: gave at most 0.12 at any chamber (a mismatch of the valve and compression physics between
-#: two simulators that no parameter absorbs, and the fit's own noise)
-FLEX_FLOOR = 0.15
+#: two simulators that no parameter absorbs, and the fit's own noise); the random-form
+#: generator's null (doctor_variant_benchmark --fast, seed 7101: +-10 % parameter errors) 0.24
+#: at shoulder.b, which its calibration, bounded for a real robot's +-10 %, leaves in the valve
+FLEX_FLOOR = 0.3
 #: ... and it must stand out of the chambers': this many times their median (the chambers of a
 #: clean recording share one level of mismatch; one effect lifts its own chamber)
 FLEX_STANDOUT = 2.0
