@@ -73,3 +73,23 @@ def test_effect_fits_at_one_joint_equal_the_whole_fit():
             after = after + torque_rms(test_on, fit_rigid_body(fit_on, extra, names, bounds), extra, block) ** 2
         assert np.allclose(s.heldout_after, np.sqrt(after / 2), rtol=1e-9) and np.allclose(s.heldout_before, np.sqrt(before / 2))
     assert confined >= len(hyps) // 2  # most act at one joint: the split is what is being tested
+
+
+def test_end_stop_grid_two_fold_rss_equals_whole_fits():
+    from identification.doctor.valve_arm import hypotheses as H
+    from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
+
+    robot = load_robot("arm2")
+    exp = prepare(robot, read_csv(SAMPLE).slice(0, 30))
+    td = torque_data(exp)
+    fit_rigid_body(td)
+    folds = H._stop_folds(td)
+    for j in range(2):
+        for stop in (-0.4, 0.0, 0.4):
+            reg = td.mask(H._stop_regs(exp, j, stop, 1))
+            whole = 0.0
+            for fit_on, test_on in td.two_fold():
+                f = fit_rigid_body(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)))
+                A = np.concatenate([td.regressors[test_on.valid], reg[test_on.valid]], axis=2)
+                whole += float(np.sum((td.residual[test_on.valid] - np.einsum("njp,p->nj", A, f.values)) ** 2))
+            assert abs(H._two_fold_rss(td, reg, folds) - whole) <= 1e-8 * whole

@@ -151,20 +151,42 @@ def _joint_regs(j, fns):
     return reg
 
 
-def _two_fold_rss(td, reg):
+def _two_fold_rss(td, reg, folds: list):
     """Residual sum of squares of the torque balance with extra regressors ``reg``, each half of
     the training samples predicted by a fit to the other half: a stop placed where only a few
-    impacts happen to fit well does not generalise, and this says so before held-out data do."""
-    from .mechanics import fit_rigid_body
+    impacts happen to fit well does not generalise, and this says so before held-out data do.
+    ``folds`` (:func:`_stop_folds`) hold each half's base fit: a stop acts at its own joint, so
+    its fit changes that joint's part alone (joint_fit) and the other joints' test residuals
+    stay the base's."""
+    from .joint_fit import confined_joint, fit_effect
 
     total = 0.0
-    for fit_on, test_on in td.two_fold():
-        f = fit_rigid_body(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)))
+    for fit_on, test_on, base, base_res in folds:
+        f = fit_effect(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)), base, 0)
         test = test_on.valid
-        A = np.concatenate([td.regressors[test], reg[test]], axis=2)
-        res = td.residual[test] - np.einsum("njp,p->nj", A, f.values)
-        total += float(np.sum(res ** 2))
+        j = confined_joint(reg, fit_on.valid)
+        if j is None:
+            A = np.concatenate([td.regressors[test], reg[test]], axis=2)
+            res = td.residual[test] - np.einsum("njp,p->nj", A, f.values)
+            total += float(np.sum(res ** 2))
+            continue
+        A_j = np.concatenate([td.regressors[test][:, j], reg[test][:, j]], axis=1)
+        res_j = td.residual[test][:, j] - A_j @ f.values
+        total += float(np.sum(base_res ** 2) - np.sum(base_res[:, j] ** 2) + res_j @ res_j)
     return total
+
+
+def _stop_folds(td) -> list:
+    """[(fit on, test on, the base fit on the first, its residual (M, J) on the second's valid
+    samples)] of the two-fold split, computed once for every stop on the grid."""
+    from .mechanics import fit_rigid_body
+
+    out = []
+    for fit_on, test_on in td.two_fold():
+        base = fit_rigid_body(fit_on)
+        test = test_on.valid
+        out.append((fit_on, test_on, base, td.residual[test] - np.einsum("njp,p->nj", td.regressors[test], base.values)))
+    return out
 
 
 def _stop_regs(exp, j, stop, side):
@@ -195,6 +217,7 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
     from .mechanics import fit_rigid_body
 
     base = fit_rigid_body(td)
+    folds = _stop_folds(td)
     out = []
     for j, name in enumerate(robot.joint_names):
         qv = exp.q_s[td.valid, j]
@@ -203,7 +226,7 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
             # briefly sits beyond all but a handful of them
             inner, outer = np.quantile(qv, 0.85 if side > 0 else 0.15), np.sort(qv)[-4 if side > 0 else 3]
             qs = np.linspace(inner, outer, n_grid)
-            rss = np.array([_two_fold_rss(td, _stop_regs(exp, j, stop, side)) for stop in qs])
+            rss = np.array([_two_fold_rss(td, td.mask(_stop_regs(exp, j, stop, side)), folds) for stop in qs])
             rss = np.array(rss)
             k = int(np.argmin(rss))
             sigma2 = rss[k] / max(base.n - len(base.values) - 2, 1)  # (unscaled torque units)
