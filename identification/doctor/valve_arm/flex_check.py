@@ -5,7 +5,6 @@ what the correction depends on; and the families a paying correction suggests ar
 when the score test ranks them low (:func:`suggested_candidates`)."""
 from __future__ import annotations
 
-import numpy as np
 
 from identification.base.statistics import locate_regime, windows
 
