@@ -33,7 +33,12 @@ def fit_effect(td: TorqueData, extra: np.ndarray, names: list, bounds, base: Fit
     spans that joint and another: solved at that joint alone (:func:`fit_at_joint`); otherwise the
     whole fit.  ``base`` is the fit without the effect (``fit_rigid_body(td, *base_extra)``)."""
     v = td.valid
-    j = confined_joint(extra[:, :, base_cols:], v)
+    effect = extra[:, :, base_cols:]
+    j = confined_joint(effect, v)
+    if j is None and not np.any(effect[v]):
+        # the effect never acts on these samples (a stop the data do not reach): its columns
+        # are zero and it changes no joint's fit
+        j = 0
     if j is None:
         return fit_rigid_body(td, extra, names, bounds)
     kept = extra[v][:, :, :base_cols]
@@ -60,7 +65,9 @@ def fit_at_joint(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, b
     y = y_all[:, j] / scale
     held = np.concatenate([cal.values, np.zeros(E)])
     free = np.array([k >= P or (n.startswith("damping_scale.") and n not in td.fixed) for k, n in enumerate(names)])
-    block = free & np.any(A != 0, axis=0)                    # the free columns acting at joint j
+    # the free columns acting at joint j, and the effect's own even where they are zero: least
+    # squares leaves a column without data at a start of its own choosing, as the whole fit does
+    block = free & (np.any(A != 0, axis=0) | (np.arange(len(names)) >= len(base.values)))
     y_f = y - A[:, ~free] @ held[~free]
     x = np.empty(len(names))
     x[: len(base.values)] = base.values                      # every other joint's part, as fitted
