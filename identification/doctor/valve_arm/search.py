@@ -114,15 +114,20 @@ def search_mechanical(run: DoctorRun, say) -> None:
     checked against the yardstick; then the joints where nothing was kept but the yardstick
     still pays (outside_without_finding)."""
     exp, held, robot = run.exp, run.held, run.robot
+    library, placed_with = None, None
     for rnd in range(MAX_ROUNDS):
         say(f"scoring mechanical hypotheses (round {rnd + 1})")
+        # the end stops are placed by a grid search on the calibrated torque balance (on
+        # humanoid38 most of a round's cost): again only once a kept effect recalibrated it
+        if library is None or run.td.calibration is not placed_with:
+            library = (mechanical_hypotheses(robot, exp, run.td) if END_STOP_HYPOTHESES
+                       else mechanical_hypotheses(robot))
+            placed_with = run.td.calibration
         # one pressure-sensor offset per cylinder: where the pressure replays found one, the
         # torque data are already corrected by it, and a second offset from the torque balance
         # would only take up what the replays' fit left over
         offset_acts = {f.where["actuator"] for f in run.findings if f.family == "pressure_sensor_offset"}
-        hyps = [h for h in (mechanical_hypotheses(robot, exp, run.td) if END_STOP_HYPOTHESES
-                            else mechanical_hypotheses(robot))
-                if h.label not in run.tried
+        hyps = [h for h in library if h.label not in run.tried
                 and not (h.family == "pressure_sensor_offset" and h.where["actuator"] in offset_acts)]
         scored, base = score_mechanical(run.td, exp, hyps, run.base_extra)
         block = mech_block(held)
