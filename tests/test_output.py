@@ -226,8 +226,11 @@ def _kill_when(proc: subprocess.Popen, ready, sig, timeout=120.0):
 
 
 def _popen(args, cwd):
+    # Ctrl-C's default action in the child even when the tests run as a background job (a shell
+    # without job control starts those with SIGINT ignored, and a child inherits that)
     return subprocess.Popen([sys.executable, "-m", "pneumasim.cli", *map(str, args)], cwd=cwd, env=_env(),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, umask=0o022)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, umask=0o022,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def _staging(parent: Path, name: str):
