@@ -81,12 +81,10 @@ def draw_effect(family: str, rng: np.random.Generator) -> tuple[dict, EffectSet]
             "parameters": _plain(fam.effect_set_entry(params))}, effects
 
 
-def perturbed_robot(rng: np.random.Generator, fraction: float):
-    """arm2 with each valve area, dead volume and link mass off by up to +-fraction."""
-    robot = load_robot("arm2")
-    f = lambda: float(1 + rng.uniform(-fraction, fraction))  # noqa: E731
+def perturbed_valves(robot, f):
+    """``robot`` with each valve's supply and exhaust area and each chamber's dead volume
+    multiplied by a factor ``f()`` (drawn in actuator order: a's areas, b's, the dead volumes)."""
     acts = []
-    factors = {}
     for a in robot.fluid.actuators:
         va = dataclasses.replace(a.valve_a, supply_area_max_m2=a.valve_a.supply_area_max_m2 * f(),
                                  exhaust_area_max_m2=a.valve_a.exhaust_area_max_m2 * f())
@@ -94,7 +92,15 @@ def perturbed_robot(rng: np.random.Generator, fraction: float):
                                  exhaust_area_max_m2=a.valve_b.exhaust_area_max_m2 * f())
         acts.append(dataclasses.replace(a, valve_a=va, valve_b=vb, dead_volume_a_m3=a.dead_volume_a_m3 * f(),
                                         dead_volume_b_m3=a.dead_volume_b_m3 * f()))
-    robot = robot.with_fluid(dataclasses.replace(robot.fluid, actuators=tuple(acts)))
+    return robot.with_fluid(dataclasses.replace(robot.fluid, actuators=tuple(acts)))
+
+
+def perturbed_robot(rng: np.random.Generator, fraction: float):
+    """arm2 with each valve area, dead volume and link mass off by up to +-fraction."""
+    robot = load_robot("arm2")
+    f = lambda: float(1 + rng.uniform(-fraction, fraction))  # noqa: E731
+    factors = {}
+    robot = perturbed_valves(robot, f)
     for b in ("upper_link", "forearm"):
         s = f()
         factors[f"mass_and_inertia.{b}"] = s

@@ -24,7 +24,6 @@ doctor know the nominal robot, the simulator runs the perturbed one.
 """
 from __future__ import annotations
 
-import dataclasses
 import functools
 
 import numpy as np
@@ -32,7 +31,7 @@ import numpy as np
 from pneumatics.effects.family import place_names
 from pneumatics.robot import load_robot
 
-from ._cases import BENCHMARK_FAMILIES, effects_of, truth_of
+from ._cases import BENCHMARK_FAMILIES, effects_of, perturbed_valves, truth_of
 
 MODEL = "humanoid38"
 PARAM_ERROR = 0.03
@@ -52,15 +51,7 @@ def perturbed_humanoid(rng: np.random.Generator, fraction: float = PARAM_ERROR):
     to +-fraction (scenarios/_cases.py's arm2 errors, on every actuator and body)."""
     robot = load_robot(MODEL)
     f = lambda: float(1 + rng.uniform(-fraction, fraction))  # noqa: E731
-    acts = []
-    for a in robot.fluid.actuators:
-        va = dataclasses.replace(a.valve_a, supply_area_max_m2=a.valve_a.supply_area_max_m2 * f(),
-                                 exhaust_area_max_m2=a.valve_a.exhaust_area_max_m2 * f())
-        vb = dataclasses.replace(a.valve_b, supply_area_max_m2=a.valve_b.supply_area_max_m2 * f(),
-                                 exhaust_area_max_m2=a.valve_b.exhaust_area_max_m2 * f())
-        acts.append(dataclasses.replace(a, valve_a=va, valve_b=vb, dead_volume_a_m3=a.dead_volume_a_m3 * f(),
-                                        dead_volume_b_m3=a.dead_volume_b_m3 * f()))
-    robot = robot.with_fluid(dataclasses.replace(robot.fluid, actuators=tuple(acts)))
+    robot = perturbed_valves(robot, f)
     factors = {}
     for i in range(1, robot.model.nbody):  # body 0 is the world
         if robot.model.body_mass[i] > 0:
