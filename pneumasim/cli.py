@@ -2,9 +2,7 @@
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
-import threading
 import warnings
 
 from pneumatics.errors import PneumasimError
@@ -189,25 +187,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _terminated(signum, frame):
-    raise KeyboardInterrupt  # SIGTERM (a job scheduler's stop) cleans up as Ctrl-C does
-
-
 def main(argv=None):
+    from pneumatics.stopping import stops_cleanly
+
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.simplefilter("default")
-    in_main = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _terminated) if in_main else None
-    try:
-        args.func(args)
-    except PneumasimError as e:
-        sys.exit(f"pneumasim: error: {e}")
-    except KeyboardInterrupt:
-        sys.exit("pneumasim: interrupted; the previous results are unchanged")
-    finally:
-        if in_main:
-            signal.signal(signal.SIGTERM, previous)
+    with stops_cleanly("pneumasim: "):  # Ctrl-C or SIGTERM: clean up, say so, end by the signal
+        try:
+            args.func(args)
+        except PneumasimError as e:
+            sys.exit(f"pneumasim: error: {e}")
 
 
 if __name__ == "__main__":

@@ -34,6 +34,7 @@ import tempfile
 from pathlib import Path
 
 from .errors import OutputError
+from .stopping import raise_if_stopped, stop_received
 
 #: written into every output folder at the swap: marks it as one pneumasim may replace whole
 MARKER = ".pneumasim-output"
@@ -344,10 +345,11 @@ class OutputFolder:
             shutil.rmtree(self.path, ignore_errors=True)
 
     def __exit__(self, exc_type, exc, tb):
-        if exc_type is None:
+        if exc_type is None and not stop_received():
             self.commit()
-        else:
-            self.discard()
+            return False
+        self.discard()
+        raise_if_stopped()  # a stop whose KeyboardInterrupt Python swallowed still stops the run
         return False
 
 
@@ -374,11 +376,12 @@ class OutputFiles:
         return self._tmp[Path(target).expanduser()]
 
     def __exit__(self, exc_type, exc, tb):
-        if exc_type is None:  # in reverse: the recording, which readers open first, moves last
+        if exc_type is None and not stop_received():  # in reverse: the recording (opened first) moves last
             for t in self.targets[::-1]:
                 if self._tmp[t].exists():
                     os.chmod(self._tmp[t], file_mode())
                     os.replace(self._tmp[t], t)
         for tmp in self._tmp.values():
             tmp.unlink(missing_ok=True)
+        raise_if_stopped()  # a stop whose KeyboardInterrupt Python swallowed still stops the run
         return False

@@ -12,9 +12,7 @@ import importlib
 import json
 import math
 import pkgutil
-import signal
 import sys
-import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,6 +25,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from pneumatics.errors import PneumasimError, UnknownNameError  # noqa: E402
 from pneumatics.io import OutputFolder, atomic_save, atomic_write_json  # noqa: E402
 from workflow.progress import Progress  # noqa: E402
+from pneumatics.stopping import stops_cleanly  # noqa: E402
 
 
 @dataclass
@@ -189,11 +188,8 @@ def main(module_name: str, argv=None):
     parser = argparse.ArgumentParser(prog=f"python -m scenarios.{name}", description=module.SUMMARY)
     add_run_options(parser)
     args = parser.parse_args(argv)
-    if threading.current_thread() is threading.main_thread():  # a scheduler's stop cleans up as Ctrl-C
-        signal.signal(signal.SIGTERM, signal.default_int_handler)
-    try:
-        run_scenario(name, args.out, args.fast, args.rerun, args.spawn, fitted=args.fitted)
-    except PneumasimError as e:
-        sys.exit(f"error: {e}")
-    except KeyboardInterrupt:
-        sys.exit("interrupted; the previous results are unchanged")
+    with stops_cleanly(""):  # Ctrl-C or SIGTERM: clean up, say so, end by the signal
+        try:
+            run_scenario(name, args.out, args.fast, args.rerun, args.spawn, fitted=args.fitted)
+        except PneumasimError as e:
+            sys.exit(f"error: {e}")
