@@ -201,7 +201,7 @@ def generalization_case(case: dict) -> dict:
     secs = time.perf_counter() - t0
     lenient = judge(truth, report)
     c = truth.get("concealment", {})
-    return {"index": case["index"], "seed": case["seed"], "case": folder.name, "folder": str(folder),
+    return {"index": case["index"], "seed": case["seed"], "case": folder.name, "folder": f"cases/{folder.name}",  # in --out
             "kind": case_kind(case["families"]), "families": case["families"] or ["none"],
             "generator": truth.get("generator"), "effects": [_effect_row(e) for e in truth["effects"]],
             "scale": c.get("scale", 1.0), "generator_min_r2": c.get("min_r2"), "concealed": c.get("concealed"),

@@ -75,7 +75,7 @@ def variant_case(case: dict) -> dict:
     j_strict = judge(truth, report, strict=True)
     red, red_reg = nrmse_reductions(report["findings"]), nrmse_reductions(report["findings"], "heldout_nrmse_in_regime")
     c = truth["concealment"]
-    return {"seed": seed, "case": name, "folder": str(folder), "families": fams or ["none"],
+    return {"seed": seed, "case": name, "folder": f"cases/{name}", "families": fams or ["none"],  # in --out
             "forms": [e["kind"] for e in truth["effects"]], "where": [e["where"] for e in truth["effects"]],
             "scale": c.get("scale", 1.0), "generator_min_r2": c.get("min_r2"),
             "generator_max_regime_snr": c.get("max_regime_rms_over_noise"),
