@@ -158,7 +158,7 @@ def _keep_mechanical(run: DoctorRun, finding: Finding, scored: list, base_h, blo
         run.tried.update(s.hyp.label for s in scored if s.hyp.joint == j)
         return False
     if finding.family == "pressure_sensor_offset":
-        finding = offset_place(finding, scored)
+        finding = offset_place(run, finding, scored)
     run.findings.append(finding)
     best = finding.scored
     run.tried.update(s.hyp.label for s in scored if s.hyp.family == best.hyp.family
@@ -343,23 +343,51 @@ def apply_offset(mods: PneumaticMods, c: int, offset_pa: float, n_ch: int) -> Pn
     return mods.copy(sensor_offset_pa=arr)
 
 
-def offset_place(finding: Finding, scored: list) -> Finding:
+def offset_place(run: DoctorRun, finding: Finding, scored: list) -> Finding:
     """Chambers a and b of one actuator explain a constant actuator-force error equally well in
-    the torque balance (offset_a * A_a = -offset_b * A_b), and the pressure replays, restarted
-    from measured pressures, are blind to a constant offset away from the supply and room
-    asymptotes.  So the finding names the actuator and both readings: an isolability statement,
-    not a guess.  The replays carry it on chamber a (equivalent for the torque)."""
+    the torque balance (offset_a * A_a = -offset_b * A_b).  The pressure replays tell them apart
+    only where the offset changes a chamber's flow (near the supply and room asymptotes, where a
+    restarted replay runs into the wrong end pressure): :func:`offset_chamber` fits the offset
+    in each chamber's replays.  When one chamber's held-out replay pays and the other's does not
+    (ISOLABLE), the finding names that chamber; otherwise it names the actuator with both
+    readings, an isolability statement rather than a guess, carried on chamber a (equivalent
+    for the torque)."""
     act = finding.where["actuator"]
     cands = {s.hyp.where["chamber"]: s for s in scored
              if s.hyp.family == "pressure_sensor_offset" and s.hyp.where["actuator"] == act}
-    primary = cands.get("a", finding.scored)
-    f = Finding(primary, primary.hyp.family, {"actuator": act}, finding_params(primary), primary.heldout_gain,
+    chamber = offset_chamber(run, act)
+    primary = cands.get(chamber or "a", finding.scored)
+    where = {"actuator": act} if chamber is None else {"actuator": act, "chamber": chamber}
+    f = Finding(primary, primary.hyp.family, where, finding_params(primary), primary.heldout_gain,
                 finding.alternatives)
-    for ch, s in cands.items():
-        if s is not primary:
-            f.params[f"offset_pa_if_chamber_{ch}"] = finding_params(s)["offset_pa"]
-    f.alternative_places = [{"actuator": act, "chamber": ch} for ch in sorted(cands)]
+    if chamber is None:
+        for ch, s in cands.items():
+            if s is not primary:
+                f.params[f"offset_pa_if_chamber_{ch}"] = finding_params(s)["offset_pa"]
+        f.alternative_places = [{"actuator": act, "chamber": ch} for ch in sorted(cands)]
     return f
+
+
+def offset_chamber(run: DoctorRun, act: str) -> str | None:
+    """The chamber of actuator ``act`` whose pressure replays a sensor offset explains: each
+    chamber's offset fitted with the chamber calibration (the replays' own pneumatic
+    hypothesis), judged by the reduction of that chamber's held-out mean square.  The best if
+    it pays (>= PNEU_KEEP) and no other chamber comes within ISOLABLE of it; else None."""
+    hyps = [h for h in pneumatic_hypotheses(run.robot)
+            if h.family == "pressure_sensor_offset" and h.where["actuator"] == act]
+    trials, _ = score_pneumatic(run.exp, run.win, run.mods, hyps, run.sigma)
+    base = chamber_rms(run.held, run.win_h, run.mods)
+    gains = {}
+    for s in trials:
+        fit_pneumatic(s, run.exp, run.fit_win, run.mods, run.sigma)
+        c = s.hyp.chambers[0]
+        gains[s.hyp.where["chamber"]] = 1.0 - (chamber_rms(run.held, run.win_h, s.mods)[c] / max(base[c], 1e-300)) ** 2
+    if not gains:
+        return None
+    best = max(gains, key=gains.get)
+    if gains[best] >= PNEU_KEEP and all(g < ISOLABLE * gains[best] for ch, g in gains.items() if ch != best):
+        return best
+    return None
 
 
 def corrected(exp: Experiment, offset_pa: np.ndarray) -> Experiment:
