@@ -6,9 +6,11 @@ when the score test ranks them low (:func:`suggested_candidates`)."""
 from __future__ import annotations
 
 
+import numpy as np
+
 from identification.base.statistics import locate_regime, windows
 
-from .flexible import corrections, paying, summary
+from .flexible import corrections, paying, summary, supply_in_time
 from .regimes import chamber_regimes
 from .rules import MECH_BLOCK_S, DoctorRun
 
@@ -47,7 +49,7 @@ def suggested_candidates(run: DoctorRun, scored: list, chosen: list) -> list:
 def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
     """(unexplained entries, diagnostics) of the flexible corrections under the final model."""
     held = run.held
-    corrs, _, ho = corrections(run.exp, held, run.mods, block_samples(held))
+    corrs, tr, ho = corrections(run.exp, held, run.mods, block_samples(held))
     t_b = held.t[ho.sample]
     out = []
     for c in paying(corrs):
@@ -72,7 +74,28 @@ def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
                          + ("" if supply else f", carried by {' and '.join(depends)}")
                          + (f"; no library effect ({', '.join(c.suggests)}) took it up" if c.suggests
                             else "; no family of the library acts through these inputs") + also)})
-    return out, summary(corrs)
+    in_time = supply_in_time(tr, ho, run.exp.rate_hz, held.rate_hz)
+    diagnostics = summary(corrs)
+    if in_time is not None:
+        diagnostics["supply"]["in_time"] = {"train_gain": in_time.train_gain, "heldout_gain": in_time.heldout_gain}
+        if in_time.pays and not any("supply" in u["where"] for u in out) \
+                and not any(f.family == "supply_droop" for f in run.findings):
+            out.append(_supply_in_time_entry(in_time, t_b))
+    return out, diagnostics
+
+
+def _supply_in_time_entry(in_time, t_b) -> dict:
+    """The unexplained entry of a supply pressure that changes in time, shared by all chambers
+    (flexible.supply_in_time), which no library effect models: the supply_droop family moves
+    the supply pressure with the flow the robot draws."""
+    fitted = np.abs(in_time.fitted_h).sum(axis=1)
+    share = min(in_time.train_gain, in_time.heldout_gain)
+    return {"where": {"supply": "all"}, "regime": "in time (not with the flow drawn)", "share_of_residual": share,
+            "residual": "supply", "depends_on": ["time"], "suggests": [], "windows": windows(t_b, fitted),
+            "evidence": (f"a supply pressure that changes in time, common to all chambers, fitted to half of the "
+                         f"actuators predicts {100 * share:.0f} % of the other half's mass-flow equation error "
+                         f"(training and held-out recording each); it does not follow the flow the robot draws "
+                         f"(supply_droop), and no library effect takes it up")}
 
 
 def partial_projection(run: DoctorRun, finding) -> bool:

@@ -160,6 +160,71 @@ def supply_correction(tr: FlowBlocks, ho: FlowBlocks) -> Correction:
     return out
 
 
+#: knot spacing [s] of the supply pressure as a free function of time (:func:`supply_in_time`):
+#: a receiver cycling between a pressure switch's limits moves by its band in a few seconds, a
+#: step takes one knot; a 2 s spacing missed both compressor cycles of the development seeds
+SUPPLY_TIME_KNOT_S = 0.5
+#: the cross-actuator gain the supply's time course needs, on the training and the held-out
+#: recording each.  Development seeds of the first fresh generalization run (2026-11-26): six
+#: nulls and seven chamber effects at most 0.005 (a chamber effect drives it negative); a
+#: supply step 0.45-0.56, two compressor cycles 0.13-0.33
+SUPPLY_TIME_FLOOR = 0.1
+
+
+@dataclass
+class SupplyInTime:
+    """The supply pressure as a free function of time, judged across actuators."""
+
+    train_gain: float
+    heldout_gain: float
+    fitted_h: np.ndarray       # (B_h, C) each chamber's flow error as the other actuators' fit predicts it [kg/s]
+
+    @property
+    def pays(self) -> bool:
+        return min(self.train_gain, self.heldout_gain) >= SUPPLY_TIME_FLOOR
+
+
+def supply_in_time(tr: FlowBlocks, ho: FlowBlocks, rate_tr: float, rate_ho: float) -> SupplyInTime | None:
+    """Does the supply pressure change in *time* in a way every chamber shares?  A supply whose
+    pressure steps, or a receiver that a compressor refills between a pressure switch's limits,
+    is not a function of the flow the robot draws (supply_correction's inputs), and a held-out
+    recording has its own time course, so this is judged inside each recording: the supply
+    pressure error as piecewise-linear in time (knots every SUPPLY_TIME_KNOT_S), acting on each
+    chamber through its own d mdot_supply / d p_supply, fitted to the chambers of half the
+    actuators and predicting the other half's (two folds, even and odd actuators).  Model
+    errors of one chamber do not carry over to another actuator; a shared supply does.  None
+    without the blocks' supply sensitivity."""
+    if tr.supply_sensitivity is None or ho.supply_sensitivity is None or tr.error.shape[1] < 4:
+        return None
+    g_tr, _ = _in_time_gain(tr, rate_tr)
+    g_ho, pred = _in_time_gain(ho, rate_ho)
+    return SupplyInTime(g_tr, g_ho, pred)
+
+
+def _in_time_gain(b: FlowBlocks, rate_hz: float) -> tuple[float, np.ndarray]:
+    t = b.sample / rate_hz
+    knots = np.arange(t.min(), t.max() + SUPPLY_TIME_KNOT_S, SUPPLY_TIME_KNOT_S)
+    hats = np.maximum(0.0, 1.0 - np.abs(t[:, None] - knots[None]) / SUPPLY_TIME_KNOT_S)    # (B, K)
+    C = b.error.shape[1]
+    rms = np.array([robust_scale(b.error[:, c]) for c in range(C)])
+    rms[rms <= 0] = 1.0
+    w = huber_weights(b.error, rms) / rms
+    fold = (np.arange(C) // 2) % 2          # chambers a, b of actuator j: j's parity
+    pred = np.zeros_like(b.error)
+    for k in (0, 1):
+        fit, test = np.nonzero(fold != k)[0], np.nonzero(fold == k)[0]
+
+        def rows(cs):
+            X = np.concatenate([b.supply_sensitivity[:, c, None] * hats for c in cs])
+            return X, np.concatenate([b.error[:, c] for c in cs]), np.concatenate([w[:, c] for c in cs])
+        X, y, wy = rows(fit)
+        Xt, yt, wt = rows(test)
+        _, p = ridge_gain(X, y, Xt, yt, wy, wt)
+        pred[:, test] = p.reshape(len(test), -1).T
+    den = float(np.sum((b.error * w) ** 2))
+    return (1.0 - float(np.sum(((b.error - pred) * w) ** 2)) / den if den > 0 else 0.0), pred
+
+
 def corrections(exp, held, mods, block: int) -> tuple[list, FlowBlocks, FlowBlocks]:
     """Every chamber's and the supply's flexible correction under the chamber model ``mods``.
 

@@ -69,6 +69,7 @@ class FlowBlocks:
     supply: np.ndarray         # (B, C, k) the supply's common-mode inputs, per chamber
     sample: np.ndarray         # (B,) sample index at each block's centre
     n_sub: int                 # fine steps per sample
+    supply_sensitivity: np.ndarray | None = None   # (B, C) d mdot_supply / d p_supply [kg/(s Pa)]
 
 
 def lowpass(x: np.ndarray, tau_s: float, dt: float = FINE_DT) -> np.ndarray:
@@ -165,7 +166,7 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
         y = x[: nb * L].reshape(nb, L, *x.shape[1:]).mean(axis=1)
         return y[idx]
     return FlowBlocks(bm(implied - m_model), {g: bm(v) for g, v in feats.items()}, bm(sup),
-                      (starts[idx] + L // 2) // S, S)
+                      (starts[idx] + L // 2) // S, S, bm(d_ps))
 
 
 def _chamber_features(exp, valves, u_eff, p, v, dp, dv, m_s, m_e, S) -> dict:
