@@ -3,7 +3,10 @@ of the free forearm under a position loop, each with hidden effects drawn from a
 (scenarios/_sarcos_cases.py: family, place, magnitude), +-3 % errors in the nominal
 parameters and sensor noise, plus null cases and pairs of effects of different families.  The
 doctor (identification/doctor/hydraulic) sees only the CSV files; its answers are compared with
-the truth.  A development set: the seeds were looked at while the doctor was developed.
+the truth.  By default a development set (base seed 3000: seeds looked at while the doctor was
+developed); ``PNEUMASIM_SARCOS_SEED=N`` gives another base seed, and ``PNEUMASIM_SARCOS_SEED=fresh``
+draws one from the operating system's entropy when the run starts, an evaluation on seeds
+nobody has looked at (``seed_source`` "fresh" in metrics.json).
 
 Strict metrics (no not-separable alternative counts):
 
@@ -13,13 +16,15 @@ Strict metrics (no not-separable alternative counts):
 * ``null_false_discovery_rate``: null cases with any finding or unexplained residual;
 * ``silent_miss_rate``: effect cases with neither a finding nor an unexplained residual;
 * ``median_heldout_nrmse_reduction`` (each finding's channel), ``seconds_per_case`` (the
-  doctor alone), ``accuracy.<family>`` (strict, per hidden family), ``seeds``.
+  doctor alone), ``accuracy.<family>`` (strict, per hidden family), ``seeds``, ``seed_base``,
+  ``seed_source`` ("development", "given" or "fresh").
 
 Cases run through :func:`workflow.sweep.sweep` (``PNEUMASIM_WORKERS=N``); finished cases are
 kept in ``<out>/sweep/cases/`` (a rerun resumes).
 """
 from __future__ import annotations
 
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -27,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from identification.doctor.hydraulic.diagnose import diagnose_hydraulic
+from pneumatics.errors import ConfigError
 from pneumatics.io import atomic_write_json
 from pneumatics.recording import read_csv
 from workflow.sweep import options_from_env, raise_on_failure, sweep
@@ -43,11 +49,31 @@ RESUMABLE = True
 PAIRS = (["valve_hysteresis", "coulomb_friction"], ["supply_droop", "force_sensor_offset"])
 
 
-def plan(fast: bool):
+SEED_ENV = "PNEUMASIM_SARCOS_SEED"
+DEVELOPMENT_SEED_BASE = 3000
+#: fresh base seeds are 9-digit numbers: far from the development seeds
+FRESH_SEEDS = (100_000_000, 1_000_000_000)
+
+
+def seed_base() -> tuple[int, str]:
+    """(base seed, "development" | "given" | "fresh") from ``PNEUMASIM_SARCOS_SEED``."""
+    given = os.environ.get(SEED_ENV)
+    if given is None:
+        return DEVELOPMENT_SEED_BASE, "development"
+    if given.strip().lower() == "fresh":
+        lo, hi = FRESH_SEEDS
+        return lo + int(np.random.SeedSequence().entropy % (hi - lo)), "fresh"
+    try:
+        return int(given), "given"
+    except ValueError:
+        raise ConfigError(f"{SEED_ENV}={given!r}: expected a whole number (the base seed) or 'fresh'") from None
+
+
+def plan(fast: bool, base: int = DEVELOPMENT_SEED_BASE):
     """[(seed, [families])], main seconds, held-out seconds."""
     if fast:
         return [(301, []), (302, ["coulomb_friction"]), (303, ["pressure_sensor_offset"])], 8.0, 6.0
-    cases, seed = [], 3000
+    cases, seed = [], base
     for fam in FAMILIES:
         for _ in range(2):
             cases.append((seed, [fam]))
@@ -115,12 +141,14 @@ def metrics(rows: list[dict]) -> dict:
 
 
 def run(ctx):
-    cases, seconds, held_s = plan(ctx.fast)
+    base, source = (301, "development") if ctx.fast else seed_base()
+    cases, seconds, held_s = plan(ctx.fast, base)
     results = sweep(blind_case, [{"seed": s, "families": f, "seconds": seconds, "heldout_seconds": held_s}
                                  for s, f in cases], out=ctx.out / "sweep", **options_from_env())
     raise_on_failure(results, "doctor_benchmark_sarcos")
     rows = [r.result for r in results]
-    print_cases(rows)
+    if source != "fresh":  # a fresh run is reported as it comes, not case by case
+        print_cases(rows)
     atomic_write_json(ctx.out / "cases.json", rows)
     fams = list(FAMILIES) + ["none"]
     cols = fams + ["unexplained"]
@@ -128,7 +156,7 @@ def run(ctx):
              for r in rows]
     plot_confusion(ctx, confusion_matrix(named, fams, cols), fams, cols,
                    "hydraulic elbow doctor benchmark: confusion matrix (strict)")
-    return metrics(rows)
+    return {**metrics(rows), "seed_base": base, "seed_source": source}
 
 
 if __name__ == "__main__":

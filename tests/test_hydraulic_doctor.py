@@ -185,3 +185,21 @@ def test_fast_sarcos_benchmark(tmp_path, monkeypatch):
     assert m["strict_effect_accuracy"] >= 0.5
     assert m["median_heldout_nrmse_reduction"] >= 0.3
     assert (tmp_path / "confusion_matrix.png").is_file() and (tmp_path / "cases.json").is_file()
+
+
+def test_the_sarcos_benchmark_draws_fresh_seeds_when_asked(monkeypatch):
+    """Unset: the development seeds (base 3000); a number: that base; "fresh": a 9-digit base
+    from the operating system's entropy, a new one each run; anything else: a clear error."""
+    from pneumatics.errors import ConfigError
+    from scenarios.doctor_benchmark_sarcos import SEED_ENV, plan, seed_base
+
+    monkeypatch.delenv(SEED_ENV, raising=False)
+    assert seed_base() == (3000, "development") and plan(False)[0][0][0] == 3000
+    monkeypatch.setenv(SEED_ENV, "4100")
+    assert seed_base() == (4100, "given") and plan(False, 4100)[0][0][0] == 4100
+    monkeypatch.setenv(SEED_ENV, "fresh")
+    (a, src), (b, _) = seed_base(), seed_base()
+    assert src == "fresh" and a != b and all(100_000_000 <= s < 1_000_000_000 for s in (a, b))
+    monkeypatch.setenv(SEED_ENV, "soon")
+    with pytest.raises(ConfigError, match="PNEUMASIM_SARCOS_SEED='soon': expected a whole number"):
+        seed_base()
