@@ -1,4 +1,4 @@
-"""The variant simulator's form registry (scenarios/_variantsim, "variantsim-2"): every form of
+"""The variant simulator's form registry (scenarios/_variantsim, "variantsim-3"): every form of
 every family makes a case that moves the channels its place says, piston leaks keep the
 cylinder's air, a two-sided end stop pushes back on both sides, and the simulator stays
 independent of pneumasim."""
@@ -51,7 +51,7 @@ def test_every_form_makes_a_case_that_moves_its_channels(family, form, null_twin
     truth = make_case(tmp_path, SEED, [family], forms=[form], seconds=4.0, heldout_seconds=1.0, fraction=0.03,
                       conceal_effects=False)
     eff = truth["effects"][0]
-    assert truth["generator"] == "variantsim-2" and eff["form"] == eff["kind"] == form and eff["source"]
+    assert truth["generator"] == "variantsim-3" and eff["form"] == eff["kind"] == form and eff["source"]
     table = _load(truth)
     assert np.isfinite(table).all() and table.shape == null_twin.shape
     diff = np.abs(table - null_twin).max(0)
@@ -173,3 +173,34 @@ def test_compressor_cycles_between_its_switch_pressures():
     assert trace.min() == pytest.approx(K.P_SUPPLY - 3e4, abs=200) and trace.max() == pytest.approx(K.P_SUPPLY, abs=200)
     filling = np.diff(trace) > 0
     assert np.sum(filling[1:] & ~filling[:-1]) >= 2       # the compressor started at least twice in 15 s
+
+
+@pytest.mark.parametrize("form", ["compliant_dead_zone", "rigid_dead_zone", "impact_damped_dead_zone"])
+def test_every_dead_zone_is_stable_on_the_elbows_lighter_piston(form, tmp_path):
+    """At the elbow (piston 3.8e-5 kg m^2, the lighter one) every contact must stay stable at the
+    0.25 ms step (the rigid form at zeta 0.7 gave NaN).  The seed: the first whose draw puts the
+    form at the elbow (make_case draws with default_rng(seed))."""
+    from scenarios._variantsim.cases import draw_effects
+
+    seed = next(s for s in range(100)
+                if draw_effects(np.random.default_rng(s), ["backlash"], [form])[0]["where"] == {"joint": "elbow"})
+    truth = make_case(tmp_path, seed, ["backlash"], forms=[form], seconds=4.0, heldout_seconds=1.0,
+                      conceal_effects=False)
+    assert truth["effects"][0]["where"] == {"joint": "elbow"}
+    assert np.isfinite(_load(truth)).all()
+
+
+def test_a_recording_that_is_not_finite_fails_in_the_case_maker(tmp_path, monkeypatch):
+    """An unstable form must fail where it is made, naming the case and columns, rather than
+    leave a NaN recording for the doctor to refuse."""
+    import scenarios._variantsim.cases as cases
+
+    real = cases.record
+
+    def broken(*args, **kw):
+        rec = real(*args, **kw)
+        rec["p"][:, 2] = np.nan
+        return rec
+    monkeypatch.setattr(cases, "record", broken)
+    with pytest.raises(ValueError, match=r"non-finite values in p_a\.elbow"):
+        make_case(tmp_path, 1, [], seconds=1.0, heldout_seconds=1.0)

@@ -20,6 +20,9 @@ from .control import record, reference, replay, table
 from .effects import hidden_for
 from .forms import FORMS, PLACES, form_of, where
 
+#: the generator's version, in every truth file: forms or their ranges changed since the last
+#: version give other cases from the same seeds
+GENERATOR = "variantsim-3"
 CHANNELS = COLUMNS[1:7]
 NOISE = np.array([ANGLE_NOISE_RAD] * 2 + [PRESSURE_NOISE_PA] * 4)
 BAND = {"r2_lo": 0.91, "r2_hi": 0.97, "r2_min": 0.9, "snr_min": 3.0}
@@ -151,9 +154,14 @@ def make_case(out: Path, seed: int, families: list[str], *, forms: list | None =
     truth_effects = [{**e, "scale": k, "effective": form_of(e["family"], e["form"]).effective(e["parameters"], k)}
                      for e in effects]
     paths = {"main": str(out / f"{name}.csv"), "heldout": str(out / f"{name}_heldout.csv")}
+    for which, rec in (("main", main), ("heldout", held)):
+        bad = [c for c, ok in zip(COLUMNS, np.all(np.isfinite(table(rec)), axis=0)) if not ok]
+        if bad:  # a form the integrator does not keep stable: fail here, not as the doctor's refusal
+            raise ValueError(f"variant case {name} (seed {seed}, {[e['form'] for e in effects]}): the {which} "
+                             f"recording has non-finite values in {', '.join(bad)}")
     write_csv(Path(paths["main"]), table(main))
     write_csv(Path(paths["heldout"]), table(held))
-    truth = {"case_id": name, "generator": "variantsim-2", "seed": seed,
+    truth = {"case_id": name, "generator": GENERATOR, "seed": seed,
              "kind": "effect" if effects else "null", "families": families,
              "effects": truth_effects, "locations": [{"family": e["family"], "where": e["where"]} for e in effects],
              "parameter_perturbation": {"fraction": fraction, "factors": factors},
