@@ -104,7 +104,12 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
     integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, np.empty(ch.shape[0]))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+# The chamber integration and its ROS2 steps are plain calls, not numba's inline="always": the
+# IR-level inlining copied the whole adaptive integrator into every physics loop that calls it
+# (physics_steps, period_steps, period_start, the compiled closed loop), and a first run in a
+# fresh install spent 190 s compiling them; as calls LLVM still decides what to inline, the
+# first compile takes about 10 s and the steps ran no slower (pneumasim bench, 2026-11-26).
+@numba.njit(cache=True, error_model="numpy")
 def integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extra):
     """:func:`integrate_chambers` with ``m_extra`` (n_ch,) a scratch array for the leak flows:
     the physics loop allocates it once per call, not once per step."""
@@ -188,7 +193,7 @@ def _chamber_volume(i, prev_length, length, act, ch, dt):
     return ch[i, 1] + ch[i, 0] * (stroke - x_mid), -ch[i, 0] * (x1 - x0) / dt
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _ros2_whole_step(p0, volume, vrate, a_s, a_e, glob, dt, m_extra):
     """(pressure, accepted) of the first try of _adaptive_ros2: one ROS2 step over dt."""
     f0, jac = _rate(p0, volume, vrate, a_s, a_e, glob, m_extra)
@@ -202,7 +207,7 @@ def _ros2_whole_step(p0, volume, vrate, a_s, a_e, glob, dt, m_extra):
     return q_new, ok
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def _adaptive_ros2(p0, volume, vrate, a_s, a_e, glob, dt, m_extra):
     """One step dt of the adaptive ROS2 of chamber.integrate, for one chamber."""
     q = p0
