@@ -80,7 +80,7 @@ def stops_cleanly(prefix: str):
 def _end_by(signum: int):
     """End the process killed by ``signum``, as an unhandled Ctrl-C ends CPython: exit handlers
     first (Rerun, multiprocessing and logging flush there), then the default action."""
-    atexit._run_exitfuncs()  # the documented handlers, run as a normal exit would
+    atexit._run_exitfuncs()  # what atexit.register installed, run now as a normal exit would run it
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
