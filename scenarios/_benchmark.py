@@ -6,6 +6,16 @@ from __future__ import annotations
 import numpy as np
 
 
+#: fresh base seeds of an evaluation run are 9-digit numbers: far from the small development seeds
+FRESH_SEEDS = (100_000_000, 1_000_000_000)
+
+
+def fresh_seed_base() -> int:
+    """A base seed drawn from the operating system's entropy, in FRESH_SEEDS."""
+    lo, hi = FRESH_SEEDS
+    return lo + int(np.random.SeedSequence().entropy % (hi - lo))
+
+
 def judge(effects: list[dict], report: dict, same=lambda named, hidden: named == hidden, strict: bool = False) -> dict:
     """One case's answer against its hidden ``effects`` ([{"family", "where"}]): every hidden
     family named (``same``), a not-separable alternative counting, and no finding of a family

@@ -37,7 +37,7 @@ from pneumatics.io import atomic_write_json
 from pneumatics.recording import read_csv
 from workflow.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import confusion_matrix, nrmse_reductions, plot_confusion, print_cases
+from ._benchmark import confusion_matrix, fresh_seed_base, nrmse_reductions, plot_confusion, print_cases
 from ._sarcos_cases import FAMILIES, make_case
 from .common import main
 
@@ -51,8 +51,6 @@ PAIRS = (["valve_hysteresis", "coulomb_friction"], ["supply_droop", "force_senso
 
 SEED_ENV = "PNEUMASIM_SARCOS_SEED"
 DEVELOPMENT_SEED_BASE = 3000
-#: fresh base seeds are 9-digit numbers: far from the development seeds
-FRESH_SEEDS = (100_000_000, 1_000_000_000)
 
 
 def seed_base() -> tuple[int, str]:
@@ -61,8 +59,7 @@ def seed_base() -> tuple[int, str]:
     if given is None:
         return DEVELOPMENT_SEED_BASE, "development"
     if given.strip().lower() == "fresh":
-        lo, hi = FRESH_SEEDS
-        return lo + int(np.random.SeedSequence().entropy % (hi - lo)), "fresh"
+        return fresh_seed_base(), "fresh"
     try:
         return int(given), "given"
     except ValueError:

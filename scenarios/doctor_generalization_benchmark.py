@@ -41,7 +41,7 @@ from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from workflow.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import confusion_matrix, plot_confusion
+from ._benchmark import confusion_matrix, fresh_seed_base, plot_confusion
 from ._generalization_metrics import OUTSIDE, case_kind, generalization_metrics, strict_effect_right, strict_location_right
 from ._variantsim.cases import make_case
 from .common import main
@@ -64,8 +64,6 @@ PAIRS = (("supply_droop", "valve_leak"), ("supply_droop", "valve_lag"), ("coulom
 FAST_PLAN = ([], ["coulomb_friction"], ["pressure_sensor_offset"], ["supply_droop", "valve_hysteresis"], [OUTSIDE])
 FAST_SEED_BASE = 16000
 SEED_ENV = "PNEUMASIM_GENERALIZATION_SEED"
-#: fresh base seeds are 9-digit numbers: far from the small seeds development runs use
-FRESH_SEEDS = (100_000_000, 1_000_000_000)
 
 
 def plan(fast: bool, seed_base: int) -> tuple[list[dict], float, float]:
@@ -123,8 +121,7 @@ def choose_seed_base(out: Path, fast: bool) -> tuple[int, str]:
     if stored.is_file() and not (out / "metrics.json").exists():
         s = json.loads(stored.read_text())
         return int(s["seed_base"]), s["seed_source"]
-    lo, hi = FRESH_SEEDS
-    return lo + int(np.random.SeedSequence().entropy % (hi - lo)), "fresh"
+    return fresh_seed_base(), "fresh"
 
 
 def generator_unknown(names) -> list[str]:

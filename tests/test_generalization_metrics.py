@@ -175,7 +175,8 @@ def test_seed_base_given_fresh_or_resumed(tmp_path, monkeypatch):
     """A given seed is used as given; none: a fresh 9-digit one from the OS each run, except
     that an unfinished run into the same folder (seed.json, no metrics.json) keeps its own."""
     from pneumatics.errors import ConfigError
-    from scenarios.doctor_generalization_benchmark import FAST_SEED_BASE, FRESH_SEEDS, SEED_ENV, choose_seed_base
+    from scenarios._benchmark import FRESH_SEEDS
+    from scenarios.doctor_generalization_benchmark import FAST_SEED_BASE, SEED_ENV, choose_seed_base
 
     monkeypatch.setenv(SEED_ENV, "123")
     assert choose_seed_base(tmp_path, fast=False) == (123, "given")

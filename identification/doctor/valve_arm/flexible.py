@@ -95,6 +95,13 @@ def robust_scale(e: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(e - np.median(e))))
 
 
+def chamber_scales(error: np.ndarray) -> np.ndarray:
+    """(C,) each chamber's robust scale of its equation error (B, C); 1 where it is 0."""
+    rms = np.array([robust_scale(error[:, c]) for c in range(error.shape[1])])
+    rms[rms <= 0] = 1.0
+    return rms
+
+
 def ridge_gain(X, y, Xh, yh, w=None, wh=None, train_fit: list | None = None):
     """(held-out gain, held-out prediction) of a ridge fit of y on X (rows: blocks); the
     training prediction is appended to ``train_fit`` if given.
@@ -141,8 +148,7 @@ def supply_correction(tr: FlowBlocks, ho: FlowBlocks) -> Correction:
     (flow_error._supply_features), fitted to every chamber's equation error at once, each
     chamber weighted by the inverse of its training error's RMS."""
     C = tr.error.shape[1]
-    rms = np.array([robust_scale(tr.error[:, c]) for c in range(C)])
-    rms[rms <= 0] = 1.0
+    rms = chamber_scales(tr.error)
     y, yh = tr.error.ravel(), ho.error.ravel()
     w = (huber_weights(tr.error, rms) / rms).ravel()
     wh = (huber_weights(ho.error, rms) / rms).ravel()
@@ -206,8 +212,7 @@ def _in_time_gain(b: FlowBlocks, rate_hz: float) -> tuple[float, np.ndarray]:
     knots = np.arange(t.min(), t.max() + SUPPLY_TIME_KNOT_S, SUPPLY_TIME_KNOT_S)
     hats = np.maximum(0.0, 1.0 - np.abs(t[:, None] - knots[None]) / SUPPLY_TIME_KNOT_S)    # (B, K)
     C = b.error.shape[1]
-    rms = np.array([robust_scale(b.error[:, c]) for c in range(C)])
-    rms[rms <= 0] = 1.0
+    rms = chamber_scales(b.error)
     w = huber_weights(b.error, rms) / rms
     fold = (np.arange(C) // 2) % 2          # chambers a, b of actuator j: j's parity
     pred = np.zeros_like(b.error)
