@@ -13,9 +13,11 @@ Table layouts (from :meth:`pneumatics.tables.FluidTables.packed`):
                    its laminar form's conductance [kg/(s Pa)] (0 = none)
   fric (n_f, 5):   dof address, Coulomb [N m], extra breakaway [N m], Stribeck velocity
                    [rad/s], viscous [N m s/rad] (effects coulomb_friction, stiction, viscous_friction)
-  glob (14,):      R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply, room, dt,
-                   slope of the linearised flow near r = 1, supply droop [Pa/(kg/s)]
-                   (effect supply_droop, 0 = none), supply pressure in effect (state)
+  glob (14 + flow_polynomial.SIZE,): R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply,
+                   room, dt, slope of the linearised flow near r = 1, supply droop
+                   [Pa/(kg/s)] (effect supply_droop, 0 = none), supply pressure in effect
+                   (state); from POLY = 14 on, the flow function's polynomial
+                   (pneumatics.flow_polynomial)
 """
 from __future__ import annotations
 
@@ -27,49 +29,58 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
+from .flow_polynomial import DEGREE, flow_polynomial
 from .medium import flow_function
 
 GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
 MAX_HALVINGS = 6
 MAX_REL_CHANGE = 0.25
 ERR_TOL = 1e-3
+#: where the flow function's polynomial starts in glob (module docstring)
+POLY = 14
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _flow_g(r, glob):
+    """(g, dg/dr) of g(r) = psi(r)^2 at r_c <= r <= laminar_ratio: the polynomial of
+    :mod:`pneumatics.flow_polynomial` packed at glob[POLY:], by Horner's rule."""
+    t = (r - glob[POLY]) * glob[POLY + 1]
+    g = glob[POLY + 2 + DEGREE]
+    d = 0.0
+    for j in range(DEGREE - 1, -1, -1):
+        d = d * t + g
+        g = g * t + glob[POLY + 2 + j]
+    return g, d * glob[POLY + 1]
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def _unit_flow(p_up, p_down, glob):
     """(flow, d/d p_up, d/d p_down) per unit area for p_up >= p_down (medium.unit_flow).
 
-    One power per call: with e = r^(1/k), r^(2/k) = e^2 and r^((k+1)/k) = r e.
-    Helpers are inlined: as separate calls they cost more than their arithmetic.
+    Straight-line code with conditional expressions (no min/max, no calls into libm but
+    sqrt): LLVM turns a loop of it over the chambers into vector instructions.
     """
-    k, rl, rc, c_choke, c_sub = glob[1], glob[4], glob[5], glob[6], glob[7]
+    rl, rc, c_choke, c_sub = glob[4], glob[5], glob[6], glob[7]
     r = p_down / p_up
-    if r <= rc:
-        return c_choke * p_up, c_choke, 0.0
-    if r <= rl:
-        e = math.exp(math.log(r) / k)
-        g = e * e - r * e
-        if g > 1e-300:  # psi and the derivative's sqrt(max(g, 1e-300)) are one root
-            psi = math.sqrt(g)
-            root = psi
-        else:
-            psi = math.sqrt(g) if g > 0.0 else 0.0
-            root = math.sqrt(1e-300)
-        dg = (2.0 / k) * e * e / r - ((k + 1.0) / k) * e
-        dpsi = dg / (2.0 * root)
-        return c_sub * p_up * psi, c_sub * (psi - r * dpsi), c_sub * dpsi
+    r_in = rc if r < rc else (rl if r > rl else r)  # the polynomial's interval
+    g, dg = _flow_g(r_in, glob)
+    psi = math.sqrt(g)  # g >= g(laminar_ratio) > 0 on the interval
+    dpsi = dg / (2.0 * psi)
     slope = glob[11]
-    return slope * (p_up - p_down), slope, -slope
+    choked, subsonic = r <= rc, r <= rl
+    flow = c_choke * p_up if choked else (c_sub * p_up * psi if subsonic else slope * (p_up - p_down))
+    d_up = c_choke if choked else (c_sub * (psi - r * dpsi) if subsonic else slope)
+    d_down = 0.0 if choked else (c_sub * dpsi if subsonic else -slope)
+    return flow, d_up, d_down
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def orifice_flow_compiled(area, p_from, p_to, glob):
     """Signed mass flow [kg/s] and its derivatives (medium.orifice_flow)."""
-    if p_from >= p_to:
-        f, d_hi, d_lo = _unit_flow(p_from, p_to, glob)
-        return area * f, area * d_hi, area * d_lo
-    f, d_hi, d_lo = _unit_flow(p_to, p_from, glob)
-    return -area * f, -area * d_lo, -area * d_hi
+    forward = p_from >= p_to
+    f, d_hi, d_lo = _unit_flow(p_from if forward else p_to, p_to if forward else p_from, glob)
+    return ((area * f, area * d_hi, area * d_lo) if forward else
+            (-area * f, -area * d_lo, -area * d_hi))
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -101,7 +112,20 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
     its end, indexed by each actuator's MuJoCo id (act[:, 4]); act, ch, glob as in the
     module docstring.
     """
-    integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, np.empty(ch.shape[0]))
+    integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, work_array(ch.shape[0]))
+
+
+#: rows of the integration's scratch array (WORK_ROWS, n_ch): leak flows [kg/s], mid-step
+#: volume [m^3], its rate [m^3/s], supply and exhaust valve areas [m^2], the whole step's new
+#: pressure [Pa] and whether it was accepted (1/0)
+EXTRA, VOLUME, VOLUME_RATE, AREA_S, AREA_E, WHOLE, ACCEPTED = range(7)
+WORK_ROWS = 7
+
+
+@numba.njit(cache=True)
+def work_array(n_chambers):
+    """Scratch for :func:`integrate_chambers_into`, allocated once per physics loop."""
+    return np.empty((WORK_ROWS, n_chambers))
 
 
 # The chamber integration and its ROS2 steps are plain calls, not numba's inline="always": the
@@ -110,13 +134,36 @@ def integrate_chambers(p, areas, prev_length, length, act, ch, glob):
 # fresh install spent 190 s compiling them; as calls LLVM still decides what to inline, the
 # first compile takes about 10 s and the steps ran no slower (pneumasim bench, 2026-11-26).
 @numba.njit(cache=True, error_model="numpy")
-def integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extra):
-    """:func:`integrate_chambers` with ``m_extra`` (n_ch,) a scratch array for the leak flows:
-    the physics loop allocates it once per call, not once per step."""
+def integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, work):
+    """:func:`integrate_chambers` with ``work`` (WORK_ROWS, n_ch) a scratch array
+    (:func:`work_array`): the physics loop allocates it once per call, not once per step."""
     dt = glob[10]
     n_ch = ch.shape[0]
+    m_extra = work[EXTRA]
+    _leak_flows(p, act, ch, glob, m_extra)
+    volume, volume_rate, a_s, a_e = work[VOLUME], work[VOLUME_RATE], work[AREA_S], work[AREA_E]
+    for i in range(n_ch):  # gathers from the actuator table, kept out of the vector loop
+        volume[i], volume_rate[i] = _chamber_volume(i, prev_length, length, act, ch, dt)
+        a_s[i], a_e[i] = areas[i, 0], areas[i, 1]
+    whole, accepted = work[WHOLE], work[ACCEPTED]
+    _whole_steps(p, volume, volume_rate, a_s, a_e, m_extra, glob, whole, accepted)
+    for i in range(n_ch):  # a chamber whose whole step failed restarts with halved steps
+        p[i] = whole[i] if accepted[i] > 0.0 else _adaptive_ros2(p[i], volume[i], volume_rate[i], a_s[i], a_e[i],
+                                                                 glob, dt, m_extra[i], 1)
+    if glob[12] > 0.0:  # supply_droop: the line drops pressure with the total supply flow
+        total = 0.0
+        for i in range(n_ch):
+            m_s, _, _ = orifice_flow_compiled(areas[i, 0], glob[8], p[i], glob)
+            total += max(m_s, 0.0)
+        glob[13] = glob[8] - glob[12] * total
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _leak_flows(p, act, ch, glob, m_extra):
+    """m_extra[i] = the leak flows into chamber i [kg/s], explicit over the step (their time
+    constants >> dt): to the room (external_leak) and across the piston (piston_leak)."""
     m_extra[:] = 0.0
-    for i in range(n_ch):  # leaks, explicit over the step (their time constants >> dt)
+    for i in range(ch.shape[0]):
         if ch[i, 12] > 0.0:
             m_x, _, _ = orifice_flow_compiled(ch[i, 12], p[i], glob[9], glob)
             m_extra[i] -= m_x
@@ -131,27 +178,20 @@ def integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extr
             m_ab = act[j, 6] * (p[2 * j] - p[2 * j + 1]) * (p[2 * j] + p[2 * j + 1]) / (2.0 * glob[9])
             m_extra[2 * j] -= m_ab
             m_extra[2 * j + 1] += m_ab
-    # chambers two at a time: their whole steps (the usual case) are independent chains of
-    # log/exp/sqrt the processor can overlap; a chamber whose whole step fails restarts in
-    # _adaptive_ros2, which repeats that step exactly before halving
-    for i in range(0, n_ch - 1, 2):
-        v0, r0 = _chamber_volume(i, prev_length, length, act, ch, dt)
-        v1, r1 = _chamber_volume(i + 1, prev_length, length, act, ch, dt)
-        q0, ok0 = _ros2_whole_step(p[i], v0, r0, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
-        q1, ok1 = _ros2_whole_step(p[i + 1], v1, r1, areas[i + 1, 0], areas[i + 1, 1], glob, dt, m_extra[i + 1])
-        p[i] = q0 if ok0 else _adaptive_ros2(p[i], v0, r0, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
-        p[i + 1] = q1 if ok1 else _adaptive_ros2(p[i + 1], v1, r1, areas[i + 1, 0], areas[i + 1, 1], glob, dt,
-                                                 m_extra[i + 1])
-    if n_ch % 2:
-        i = n_ch - 1
-        v0, r0 = _chamber_volume(i, prev_length, length, act, ch, dt)
-        p[i] = _adaptive_ros2(p[i], v0, r0, areas[i, 0], areas[i, 1], glob, dt, m_extra[i])
-    if glob[12] > 0.0:  # supply_droop: the line drops pressure with the total supply flow
-        total = 0.0
-        for i in range(n_ch):
-            m_s, _, _ = orifice_flow_compiled(areas[i, 0], glob[8], p[i], glob)
-            total += max(m_s, 0.0)
-        glob[13] = glob[8] - glob[12] * total
+
+
+# fastmath "contract" only: fused multiply-adds, no reassociation and no assumption that
+# values are finite (the acceptance test checks for NaN and inf).
+@numba.njit(cache=True, error_model="numpy", fastmath={"contract"})
+def _whole_steps(p, volume, volume_rate, a_s, a_e, m_extra, glob, whole, accepted):
+    """The first try of :func:`_adaptive_ros2`, one ROS2 step over dt, for every chamber at
+    once: contiguous arrays in and out and straight-line code, so LLVM vectorises the loop
+    (several chambers per instruction)."""
+    dt = glob[10]
+    for i in range(p.shape[0]):
+        q, ok = _ros2_whole_step(p[i], volume[i], volume_rate[i], a_s[i], a_e[i], glob, dt, m_extra[i])
+        whole[i] = q
+        accepted[i] = 1.0 if ok else 0.0
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -168,13 +208,13 @@ def write_friction(qvel, qfrc_applied, fric):
 def fluid_step_fast(p, areas, prev_length, length, ctrl, act, ch, glob):
     """Integrate the step that just ended (prev_length -> length), write the forces of the new
     pressures into ``ctrl`` and remember ``length`` in ``prev_length``."""
-    fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, np.empty(ch.shape[0]))
+    fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, work_array(ch.shape[0]))
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, m_extra):
-    """:func:`fluid_step_fast` with a scratch array (n_ch,) for the leak flows."""
-    integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extra)
+def fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, work):
+    """:func:`fluid_step_fast` with a scratch array (:func:`work_array`)."""
+    integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, work)
     write_forces(p, ctrl, act, glob)
     for j in range(act.shape[0]):
         prev_length[j] = length[int(act[j, 4])]
@@ -193,7 +233,7 @@ def _chamber_volume(i, prev_length, length, act, ch, dt):
     return ch[i, 1] + ch[i, 0] * (stroke - x_mid), -ch[i, 0] * (x1 - x0) / dt
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _ros2_whole_step(p0, volume, vrate, a_s, a_e, glob, dt, m_extra):
     """(pressure, accepted) of the first try of _adaptive_ros2: one ROS2 step over dt."""
     f0, jac = _rate(p0, volume, vrate, a_s, a_e, glob, m_extra)
@@ -202,16 +242,17 @@ def _ros2_whole_step(p0, volume, vrate, a_s, a_e, glob, dt, m_extra):
     f1, _j = _rate(p0 + dt * k1, volume, vrate, a_s, a_e, glob, m_extra)
     k2 = (f1 - 2.0 * k1) / denom
     q_new = p0 + 1.5 * dt * k1 + 0.5 * dt * k2
-    ok = (math.isfinite(q_new) and abs(q_new - p0) <= MAX_REL_CHANGE * p0
-          and 0.5 * dt * abs(k1 + k2) <= ERR_TOL * p0)
+    ok = (math.isfinite(q_new) & (abs(q_new - p0) <= MAX_REL_CHANGE * p0)
+          & (0.5 * dt * abs(k1 + k2) <= ERR_TOL * p0))  # & not `and`: no branches in the vector loop
     return q_new, ok
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _adaptive_ros2(p0, volume, vrate, a_s, a_e, glob, dt, m_extra):
-    """One step dt of the adaptive ROS2 of chamber.integrate, for one chamber."""
+def _adaptive_ros2(p0, volume, vrate, a_s, a_e, glob, dt, m_extra, first_level):
+    """One step dt of the adaptive ROS2 of chamber.integrate, for one chamber, trying 2^level
+    substeps from ``first_level`` on (1 after a failed whole step, 0 otherwise)."""
     q = p0
-    for level in range(MAX_HALVINGS + 1):
+    for level in range(first_level, MAX_HALVINGS + 1):
         n_sub = 2 ** level
         h = dt / n_sub
         q = p0
@@ -242,7 +283,7 @@ def static_transient_fast(p0, volume, a_s, a_e, glob, dt, out):
         out[0, i] = p0[i]
     for k in range(out.shape[0] - 1):
         for i in range(n):
-            out[k + 1, i] = _adaptive_ros2(out[k, i], volume[i], 0.0, a_s[i], a_e[i], glob, dt, 0.0)
+            out[k + 1, i] = _adaptive_ros2(out[k, i], volume[i], 0.0, a_s[i], a_e[i], glob, dt, 0.0, 0)
 
 
 def pack(tables, ctrl_index, dt):
@@ -251,9 +292,14 @@ def pack(tables, ctrl_index, dt):
     act = np.ascontiguousarray(np.column_stack([act, np.asarray(ctrl_index, float), tables.piston_leak_m2,
                                                 tables.piston_leak_g]))
     ch = np.ascontiguousarray(np.column_stack([ch, tables.external_leak_m2, tables.external_leak_g]))
-    gas = tables.gas
+    return act, ch, pack_glob(tables.gas, tables.supply_pa, tables.room_pa, dt, tables.supply_droop_pa_per_kg_s)
+
+
+def pack_glob(gas, supply_pa: float, room_pa: float, dt: float, droop: float) -> np.ndarray:
+    """The kernel's gas and plant constants, ``glob`` of the module docstring."""
     slope = gas.c_sub * flow_function(gas.laminar_ratio, gas.heat_capacity_ratio) / (1.0 - gas.laminar_ratio)
-    return act, ch, np.concatenate([glob, [dt, slope, tables.supply_droop_pa_per_kg_s, tables.supply_pa]])
+    return np.concatenate([gas.as_array(), [supply_pa, room_pa, dt, slope, droop, supply_pa],
+                           flow_polynomial(gas.heat_capacity_ratio, gas.critical_ratio, gas.laminar_ratio)])
 
 
 # -- the whole physics loop, compiled -------------------------------------------------------
@@ -325,19 +371,19 @@ def period_steps(n, step1_done, catch_up, fns, model_addr, data_addr, p, areas, 
     period's :func:`period_start` instead of computing the kinematics twice (once here, once in
     the next mj_step1: about a third of an mj_step); p, q, qd are then synchronous only after it.
     """
-    m_extra = np.empty(p.size)
+    work = work_array(p.size)
     for k in range(n):
         if not (k == 0 and step1_done):
             call_mujoco(fns[STEP1], model_addr, data_addr)
         _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc,
-                          qfrc_applied, fric, m_extra)
+                          qfrc_applied, fric, work)
         call_mujoco(fns[STEP2], model_addr, data_addr)
     if catch_up:  # actuator lengths at the new state, then the last step's pressures
         call_mujoco(fns[KINEMATICS], model_addr, data_addr)
         call_mujoco(fns[COM_POS], model_addr, data_addr)
         call_mujoco(fns[TENDON], model_addr, data_addr)
         call_mujoco(fns[TRANSMISSION], model_addr, data_addr)
-        _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, m_extra)
+        _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, work)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -347,16 +393,16 @@ def period_start(fns, model_addr, data_addr, p, areas, prev_length, length, ctrl
     actuator lengths the catch-up would), then the last step's pressures, forces and sensor sums,
     exactly as the catch-up makes them.  Follow with ``period_steps(..., step1_done=True, ...)``."""
     call_mujoco(fns[STEP1], model_addr, data_addr)
-    _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, np.empty(p.size))
+    _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, work_array(p.size))
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, qfrc_applied, fric,
-                      m_extra):
+                      work):
     """Between mj_step1 and mj_step2 of step k: integrate the fluid over the step that ended
     (none before the first), accumulate the sensors, write forces and friction."""
     if k > 0:
-        integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, m_extra)
+        integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, work)
         for j in range(act.shape[0]):
             prev_length[j] = length[int(act[j, 4])]
         _accumulate(acc, p, qpos, qvel)
@@ -365,9 +411,9 @@ def _between_mj_steps(k, p, areas, prev_length, length, ctrl, act, ch, glob, qpo
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, m_extra):
+def _catch_up(p, areas, prev_length, length, ctrl, act, ch, glob, qpos, qvel, acc, work):
     """After the last step's kinematics: its fluid step, forces, and sensor accumulation."""
-    fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, m_extra)
+    fluid_step_into(p, areas, prev_length, length, ctrl, act, ch, glob, work)
     _accumulate(acc, p, qpos, qvel)
 
 

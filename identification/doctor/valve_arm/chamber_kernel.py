@@ -22,13 +22,6 @@ import numba
 import numpy as np
 
 from pneumatics.kernel import GAMMA, orifice_flow_compiled
-from pneumatics.medium import flow_function
-
-
-def pack_glob(gas, supply_pa: float, room_pa: float, dt: float, droop: float) -> np.ndarray:
-    """The kernel's gas/plant constants (layout of pneumatics.kernel's ``glob``)."""
-    slope = gas.c_sub * flow_function(gas.laminar_ratio, gas.heat_capacity_ratio) / (1.0 - gas.laminar_ratio)
-    return np.concatenate([gas.as_array(), [supply_pa, room_pa, dt, slope, droop, supply_pa]])
 
 
 @numba.njit(cache=True, error_model="numpy")

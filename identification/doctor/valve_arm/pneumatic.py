@@ -19,10 +19,11 @@ from pneumatics.effects.external_leak import laminar_flow
 from pneumatics.effects.heat_transfer import thermal_step
 from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play
 from pneumatics.effects.valve_leak import WIDTH_V, leak_areas
+from pneumatics.kernel import pack_glob
 from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
 
-from .chamber_kernel import pack_glob, step_batch
+from .chamber_kernel import step_batch
 from .data import FINE_DT, Experiment
 from .thermal import gas_temperatures
 
