@@ -126,6 +126,7 @@ class Simulation:
         self._thermal_any = bool(self._thermal.any())
         self._compiled_args = None  # physics_steps' arguments, built at the first step
         self._step_call = None  # step_call.StepCall of them
+        self._command_caller = None  # step_call.CommandCall of command_step_args
         #: physics steps run in one compiled loop (:func:`pneumatics.kernel.physics_steps`)
         self.compiled_steps = kernel == "fast" and MUJOCO_FUNCTIONS is not None and not self._thermal_any
         self.gas_temperature = np.full(robot.tables.n_chambers, robot.tables.gas.temperature_k)
@@ -218,7 +219,7 @@ class Simulation:
             raise ArgumentError(f"set_command(command_v): expected shape {self.command.shape} "
                                 f"(one per chamber), got {u.shape}")
         if self.kernel == "fast" and not self._valve_dynamics:
-            status = command_step(u, *self.command_step_args())
+            status = self._command_call()(u)
             if status == CLIPPED:
                 self._warn_clipped(u)
             if status in (OK, CLIPPED):
@@ -333,6 +334,16 @@ class Simulation:
                 self._prev_length, d.actuator_length, d.ctrl, act, ch, glob, d.qpos, d.qvel, self.sums,
                 d.qfrc_applied, self._fric)
         return args
+
+    def _command_call(self):
+        """step_call.CommandCall of :meth:`command_step_args`, made once (the arrays it points
+        at live as long as the simulation)."""
+        call = self._command_caller
+        if call is None or call.args[3] is not self.command or call.args[11] is not self.areas:
+            from .step_call import CommandCall  # compiles (or loads) the C entry point at the first command
+
+            call = self._command_caller = CommandCall(self.command_step_args())
+        return call
 
     def command_step_args(self) -> tuple:
         """The arguments of :func:`pneumatics.command_kernel.command_step` after the commands, for

@@ -67,3 +67,27 @@ def test_clipping_warns_once_per_run(pair):
     with warnings.catch_warnings():
         warnings.simplefilter("error", CommandClippedWarning)
         fast.set_command([12.0, 5.0, 5.0, 5.0])  # no second warning in the same run
+
+
+def test_the_c_entry_point_and_numbas_dispatcher_agree(pair):
+    """step_call.CommandCall: the C entry point where every array is C-contiguous float64, the
+    dispatcher otherwise (here a Fortran-ordered area table), same statuses and arrays."""
+    from pneumatics.command_kernel import command_step
+    from pneumatics.step_call import CommandCall
+
+    fast, _ = pair
+    args = fast.command_step_args()
+
+    def fresh(order):
+        out = [np.array(a, order=order) if isinstance(a, np.ndarray) else a for a in args]
+        return tuple(out)
+
+    c_args, f_args, expected_args = fresh("C"), fresh("F"), fresh("C")
+    c_call, f_call = CommandCall(c_args), CommandCall(f_args)
+    assert c_call.address is not None and f_call.address is None
+    rng = np.random.default_rng(7)
+    for u in [rng.uniform(-1.0, 11.0, 4) for _ in range(50)] + [np.array([5.0, np.nan, 5.0, 5.0])]:
+        assert c_call(u) == f_call(u) == command_step(u, *expected_args)
+        for a, b, c in zip(c_args, f_args, expected_args):
+            np.testing.assert_array_equal(a, b)
+            np.testing.assert_array_equal(a, c)
