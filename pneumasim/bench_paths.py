@@ -9,8 +9,11 @@ interleaved, best of ``repeats`` (noise only ever adds time):
   design: the rigid body alone, with no Python per step;
 * ``bare_py``: the same ``ctrl`` sequence through a Python loop of ``mj_step`` (what the
   older ``bare`` measures, with the forces changing every step instead of every period);
-* ``full_open_loop``: :meth:`Simulation.step` with the valve commands of a recorded PIDF run
-  set every control period (100 Hz), as a replay of a recording drives the simulator;
+* ``full_open_loop``: the valve commands of a recorded PIDF run, changing every control period
+  (100 Hz), played as a replay of a recording drives the simulator (:meth:`Simulation.play`,
+  one compiled call for the whole sequence);
+* ``full_open_loop_python``: the same commands through a Python loop of
+  :meth:`Simulation.set_command` and :meth:`Simulation.step` (what a user's own loop pays);
 * ``full_closed_loop``: :func:`pneumatics.runner.run` under the shipped PIDF at 100 Hz (DAQ
   averaging, sensor noise, the controller, the recording kept), on the compiled closed loop
   the built-in controllers get (:mod:`controllers.compiled_loop`);
@@ -19,6 +22,7 @@ interleaved, best of ``repeats`` (noise only ever adds time):
   reported as compute seconds per second of data.
 
 ``ratio_vs_c`` = full_open_loop time per step / bare_c time per step;
+``python_loop_ratio_vs_c`` = full_open_loop_python / bare_c;
 ``closed_loop_ratio_vs_c`` = full_closed_loop / bare_c (DESIGN.md "Benchmarks").
 """
 from __future__ import annotations
@@ -110,7 +114,15 @@ def _time_bare_py(model, state0, ctrl) -> float:
 
 
 def time_open_loop(sim: Simulation, commands) -> float:
-    """Seconds the simulation takes for ``commands`` (P, C), one per control period."""
+    """Seconds :meth:`Simulation.play` takes for ``commands`` (P, C), one per control period."""
+    reset_bench_state(sim)
+    t0 = time.perf_counter()
+    sim.play(commands, PERIOD)
+    return time.perf_counter() - t0
+
+
+def time_open_loop_python(sim: Simulation, commands) -> float:
+    """Seconds a Python loop of set_command and step takes for ``commands`` (P, C)."""
     reset_bench_state(sim)
     t0 = time.perf_counter()
     for u in commands:
@@ -138,6 +150,7 @@ def bench_paths(name: str, seconds: float, repeats: int = 3) -> dict:
     timers = {"bare_c": lambda: time_bare_c(m, state0, ctrl),
               "bare_py": lambda: _time_bare_py(m, state0, ctrl),
               "full_open_loop": lambda: time_open_loop(sim, commands),
+              "full_open_loop_python": lambda: time_open_loop_python(sim, commands),
               "full_closed_loop": lambda: _time_closed_loop(sim, seconds)}
     best = dict.fromkeys(timers, np.inf)
     for fn in timers.values():  # warm-up: first calls allocate and compile
@@ -148,6 +161,7 @@ def bench_paths(name: str, seconds: float, repeats: int = 3) -> dict:
     out = {f"{k}_steps_per_s": n / v for k, v in best.items()}
     out["ratio_vs_c"] = best["full_open_loop"] / best["bare_c"]
     out["closed_loop_ratio_vs_c"] = best["full_closed_loop"] / best["bare_c"]
+    out["python_loop_ratio_vs_c"] = best["full_open_loop_python"] / best["bare_c"]
     out["bare_py_ratio_vs_c"] = best["bare_py"] / best["bare_c"]
     out["paths_steps"] = n
     return out

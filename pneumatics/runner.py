@@ -166,11 +166,11 @@ def _run_compiled(sim, law, n_rows, n_sub, t0, rate_hz, average, noise, rng, ang
         done, status = law.run_rows(k0, k1, tuple(run_args), record)
         # the steps summed since the last DAQ mean, as Simulation.step / take_mean count them
         if average:
-            sim._n_summed = n_sub if done == k1 < n_rows else 0
+            sim.steps_summed = n_sub if done == k1 < n_rows else 0
         else:
-            sim._n_summed = min(done, n_rows - 1) * n_sub
+            sim.steps_summed = min(done, n_rows - 1) * n_sub
         if status == CLIPPED:
-            sim._warn_clipped(record[4][done - 1])
+            sim.warn_clipped(record[4][done - 1])
         if done < k1:  # commands the valves refuse (left in the row): the numpy path names the fault
             law.finish()
             sim.set_command(record[4][done])

@@ -144,7 +144,8 @@ class Simulation:
         self._drive = drive_pairs(self.model, robot.joint_names)  # (k, gap, qpos adr, dof adr)
         self._clip_warned = False
         self.sums = np.zeros(n_ch + self.model.nq + self.model.nv)
-        self._n_summed = 0
+        #: physics steps added into ``sums`` since the last :meth:`take_mean`
+        self.steps_summed = 0
         self.reset()
 
     # -- state ---------------------------------------------------------------------------
@@ -181,7 +182,7 @@ class Simulation:
         self._update_areas()
         self._clip_warned = False
         self.sums[:] = 0.0
-        self._n_summed = 0
+        self.steps_summed = 0
         mujoco.mj_forward(self.model, self.data)
         self._prev_length[:] = self.data.actuator_length[self._ids]
         self.data.ctrl[self._ids] = actuator_force(self.tables, self.pressure)
@@ -221,7 +222,7 @@ class Simulation:
         if self.kernel == "fast" and not self._valve_dynamics:
             status = self._command_call()(u)
             if status == CLIPPED:
-                self._warn_clipped(u)
+                self.warn_clipped(u)
             if status in (OK, CLIPPED):
                 return
             # NOT_FINITE, UNIT_SLIP: nothing was changed; the numpy path below names the fault
@@ -237,7 +238,7 @@ class Simulation:
             raise ArgumentError(f"set_command(command_v): {u[i]:.6g} V for chamber {a}.{c} is far outside the "
                                 f"valve's {lo:g}-{hi:g} V (clipped within {COMMAND_SLIP_V:g} V of it): wrong unit?")
         if u.min() < lo or u.max() > hi:
-            self._warn_clipped(u)
+            self.warn_clipped(u)
         np.clip(u, lo, hi, out=self.command)
         # valve_hysteresis: the spool follows the command through a play of +-h
         self.spool[:] = play_step(self.spool, self.command, self._hysteresis)
@@ -247,8 +248,8 @@ class Simulation:
         self.spool_position[:] = self.spool
         self._update_areas()
 
-    def _warn_clipped(self, u):
-        """CommandClippedWarning for commands ``u`` outside COMMAND_RANGE_V, once per run."""
+    def warn_clipped(self, u):
+        """A CommandClippedWarning for commands ``u`` outside COMMAND_RANGE_V, once per run."""
         if self._clip_warned:
             return
         self._clip_warned = True
@@ -284,6 +285,17 @@ class Simulation:
         self.areas[:, 0], self.areas[:, 1] = a_s, a_e
 
     # -- stepping ------------------------------------------------------------------------
+    def play(self, commands, steps: int):
+        """Play ``commands`` (P, n_ch) [V], each row held for ``steps`` physics steps, as
+        ``set_command`` + ``step`` would, in one compiled call where the fast kernel allows
+        (:mod:`pneumatics.playback`).  Returns a :class:`~pneumatics.playback.Playback` of the
+        state at each row's end; a row of bad commands raises ArgumentError naming the row,
+        with the rows before it played."""
+        from .playback import play
+
+        return play(self, commands, steps)
+
+
     def step(self, n: int = 1):
         """Advance ``n`` physics steps with the current commands.
 
@@ -300,7 +312,7 @@ class Simulation:
 
     def _physics_steps(self, n: int):
         m, d = self.model, self.data
-        self._n_summed += n
+        self.steps_summed += n
         if self.compiled_steps:
             args = self.physics_step_args()
             call = self._step_call
@@ -427,11 +439,11 @@ class Simulation:
         """Mean of the sensors over the steps since the last call (DAQ averaging), then restart.
 
         With no step since the last call, the instantaneous values."""
-        if self._n_summed == 0:
+        if self.steps_summed == 0:
             return self.observe()
         n_ch, nq = self.pressure.size, self.model.nq
-        mean = self.sums / self._n_summed
+        mean = self.sums / self.steps_summed
         self.sums[:] = 0.0
-        self._n_summed = 0
+        self.steps_summed = 0
         return Observation(self.time, mean[n_ch:n_ch + nq][self._qadr] + self._q_offset,
                            mean[n_ch + nq:][self._dadr], mean[:n_ch] + self._p_offset)

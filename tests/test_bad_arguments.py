@@ -23,7 +23,7 @@ def test_step_needs_a_positive_whole_number(sim, n, match):
     with pytest.raises(ArgumentError, match=match):
         sim.step(n)
     # nothing happened: time and chambers stand where they were, the DAQ sums untouched
-    assert sim.time == t0 and np.array_equal(sim.pressure, p0) and sim._n_summed == 0
+    assert sim.time == t0 and np.array_equal(sim.pressure, p0) and sim.steps_summed == 0
 
 
 def test_step_accepts_numpy_integers_and_averages_positively(sim):

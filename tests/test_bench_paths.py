@@ -19,6 +19,10 @@ def test_c_and_python_stepping_of_the_recorded_forces_follow_the_simulation():
     for u in commands:
         sim.set_command(u)
         sim.step(PERIOD)
+    looped = sim.data.qpos.copy()
+    reset_bench_state(sim)
+    played = sim.play(commands, PERIOD)  # the bench's open loop
+    np.testing.assert_array_equal(played.qpos[-1], looped)
     m = sim.model
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     states, _ = rollout.rollout(m, mujoco.MjData(m), state0[None], ctrl[None],

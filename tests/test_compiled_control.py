@@ -53,7 +53,7 @@ def _both(sim, make, seconds=SECONDS, **kw):
         rec = run(sim, ctrl, seconds, compiled=compiled, record_velocity=True, record_force=True, **kw)
         state = {"pressure": sim.pressure.copy(), "qpos": sim.data.qpos.copy(), "qvel": sim.data.qvel.copy(),
                  "command": sim.command.copy(), "areas": sim.areas.copy(), "sums": sim.sums.copy(),
-                 "n_summed": sim._n_summed, "integral": ctrl._integral.copy(), "deriv": ctrl._deriv.copy(),
+                 "n_summed": sim.steps_summed, "integral": ctrl._integral.copy(), "deriv": ctrl._deriv.copy(),
                  "time": sim.time}
         out.append((rec, state))
     return out
