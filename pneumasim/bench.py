@@ -204,13 +204,13 @@ def run_bench(quick: bool = False, out: str | Path = "runs/bench", scaling: bool
         results["doctor_replay"] = bench_doctor_replay(10.0 if quick else 30.0)
         progress.say("doctor")
         results["doctor"] = bench_doctor(quick)
-        progress.say("sweep overheads")
-        results["sweep"] = bench_sweep(quick)
-        if scaling:
+        if scaling:  # before the sweep: measured after Ray had run, its figures came out up to twice as slow
             from pneumasim.bench_scaling import run_scaling
 
             progress.say("scaling: chambers and recording length")
             results["scaling"] = run_scaling(folder.path)
+        progress.say("sweep overheads")
+        results["sweep"] = bench_sweep(quick)
         _print_table(results)
         atomic_write_json(folder.path / "bench.json", results)
     print(f"wrote {Path(out) / 'bench.json'}")
