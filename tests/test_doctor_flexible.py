@@ -200,3 +200,35 @@ def test_a_supply_step_is_unexplained_at_the_supply(tmp_path):
     assert [(u["where"], u["regime"]) for u in report["unexplained"]] == [({"supply": "all"},
                                                                            "in time (not with the flow drawn)")]
     assert report["diagnostics"]["flexible_corrections"]["supply"]["in_time"]["heldout_gain"] > 0.3
+
+
+def _correction(gain, c):
+    from identification.doctor.valve_arm.flexible import Correction
+
+    return Correction(where={"actuator": f"a{c // 2}", "chamber": "ab"[c % 2]}, gain=gain,
+                      alone={"volume": gain}, drop={"volume": gain}, fitted_h=np.zeros(1), error_h=np.zeros(1),
+                      chambers=[c])
+
+
+def test_the_chambers_floor_is_set_per_robot_from_their_spread():
+    """76 chambers of a clean robot spread their corrections' gains (humanoid38, seed 7000:
+    median 0.23, up to 0.74): none stands out.  One effect lifts its own chamber above the
+    spread.  With arm2's 4 chambers there is no spread to estimate: the fixed floor alone."""
+    from identification.doctor.valve_arm.flexible import paying
+
+    rng = np.random.default_rng(0)
+    clean = np.clip(rng.normal(0.23, 0.2, 76), 0.0, 0.74)
+    assert paying([_correction(g, c) for c, g in enumerate(clean)]) == []
+    lifted = np.where(np.arange(76) == 9, 0.97, np.clip(rng.normal(0.1, 0.05, 76), 0, 1))
+    assert [c.chambers for c in paying([_correction(g, c) for c, g in enumerate(lifted)])] == [[9]]
+    arm2 = [_correction(g, c) for c, g in enumerate([0.05, 0.08, 0.35, 0.06])]
+    assert [c.chambers for c in paying(arm2)] == [[2]] and FLEX_FLOOR <= 0.35
+
+
+def test_robust_ceiling_is_median_plus_three_robust_deviations():
+    from identification.base.statistics import SPREAD_MIN_PLACES, robust_ceiling
+
+    x = np.random.default_rng(1).normal(5.0, 2.0, 20001)
+    assert robust_ceiling(x) == pytest.approx(11.0, abs=0.1)
+    assert robust_ceiling(np.exp(x / 10), log=True) == pytest.approx(np.exp(1.1), rel=0.02)
+    assert robust_ceiling(x[: SPREAD_MIN_PLACES - 1]) == -np.inf

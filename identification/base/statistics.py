@@ -16,6 +16,26 @@ LB_LAGS = 20        # Ljung-Box lags (samples)
 XCORR_S = 0.05      # input cross-correlation: lags 0 .. 50 ms
 
 
+#: a spread across places is estimated only from at least this many of them
+SPREAD_MIN_PLACES = 12
+#: robust z-score (median, 1.4826 x median absolute deviation) above which a place stands out
+SPREAD_Z = 3.0
+
+
+def robust_ceiling(values, log: bool = False) -> float:
+    """The value above which one of ``values`` (one per place of a robot) stands out of the
+    others: median + SPREAD_Z x 1.4826 MAD (the MAD of a normal sample estimates its standard
+    deviation so; Hampel 1974), in log space for positive scale-like values (``log``).  With
+    fewer than SPREAD_MIN_PLACES values there is no spread to estimate: -inf (no ceiling)."""
+    v = np.asarray(values, float)
+    if v.size < SPREAD_MIN_PLACES:
+        return -np.inf
+    x = np.log(np.maximum(v, 1e-300)) if log else v
+    med = np.median(x)
+    top = med + SPREAD_Z * 1.4826 * np.median(np.abs(x - med))
+    return float(np.exp(top)) if log else float(top)
+
+
 def locate_regime(residual: np.ndarray, regimes: dict, min_cover: float = 0.05):
     """(name, lift, share) of the regime holding the most residual energy per unit time."""
     e = residual ** 2

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identification.base.statistics import bootstrap_inclusion, locate_regime, windows
+from identification.base.statistics import bootstrap_inclusion, locate_regime, robust_ceiling, windows
 
 from .flex_check import flexible_unexplained
 from .pneumatic import PneumaticMods, replay
@@ -96,12 +96,16 @@ def _unexplained_chambers(run: DoctorRun, res_h, res_base_h, rms_c, rms_t, idx_h
     missing physics), and that no finding explains."""
     base_rms = np.sqrt(np.mean(res_base_h ** 2, axis=(0, 1)))
     floor_h, floor_t = np.median(base_rms), np.median(rms_t)
+    # on a robot with enough chambers, also above their spread (the floor set per robot from
+    # the data): chambers of different sizes and valves replay with errors of different sizes
+    ceiling_h, ceiling_t = robust_ceiling(base_rms, log=True), robust_ceiling(rms_t, log=True)
     explained = {c for f in run.findings for c in f.scored.hyp.chambers}
     out = []
     for c, (a, ch) in enumerate(run.robot.chamber_names):
         others = floor_h
-        consistent = rms_t[c] >= TRAIN_RATIO * floor_t
-        if c in explained or rms_c[c] < UNEXPLAINED_RATIO * floor_h or rms_c[c] < 2 * run.sigma or not consistent:
+        consistent = rms_t[c] >= max(TRAIN_RATIO * floor_t, ceiling_t)
+        if (c in explained or rms_c[c] < max(UNEXPLAINED_RATIO * floor_h, ceiling_h) or rms_c[c] < 2 * run.sigma
+                or not consistent):
             continue
         r = res_h[:, :, c].ravel()
         reg = chamber_regimes(run.held, c)
