@@ -39,7 +39,7 @@ from .effects.valve_lag import lag_decay
 from .effects.valve_leak import leak_areas
 from . import arguments
 from .errors import ArgumentError, PneumasimError
-from .command_kernel import CLIPPED, OK, command_step
+from .command_kernel import CLIPPED, OK
 from .kernel import MUJOCO_FUNCTIONS, fluid_step_fast, pack
 from .robot import Robot
 from .tables import valve_areas_table
@@ -294,7 +294,6 @@ class Simulation:
         from .playback import play
 
         return play(self, commands, steps)
-
 
     def step(self, n: int = 1):
         """Advance ``n`` physics steps with the current commands.

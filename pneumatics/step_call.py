@@ -9,8 +9,8 @@ arguments are written once into an ``int64`` block (addresses and shapes) and th
 called through ctypes with two arguments (~0.3 us): :class:`StepCall`.  The arithmetic is
 the kernel's own, so results do not change; where an argument is not a C-contiguous float64
 array the caller keeps the dispatcher.  :class:`CommandCall` does the same for the command's
-13 arguments (2.3 us a period through the dispatcher on arm2, about as much again as the
-Python of ``step``).
+13 arguments: about 1.5 us a period through the dispatcher, 0.85 us through the C entry point
+with its copy of the commands (arm2, 2026-11-26).
 """
 from __future__ import annotations
 
