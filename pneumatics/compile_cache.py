@@ -8,9 +8,9 @@ point of ``step_call.py`` and the closed loop of ``controllers/compiled_loop.py`
 After an update that changes ``kernel.py`` alone, those loops would load their old machine
 code from the cache and run the old physics.
 
-So the cache folder is named by a hash of every project source file that mentions numba:
-change any of them and every compiled function is compiled afresh (once), into a new
-folder.  :func:`key_the_cache` sets ``numba.config.CACHE_DIR`` and must run before the first
+So the cache folder is named by a hash of every project source file that mentions numba and
+of the project modules those import from: change any of them and every compiled function is
+compiled afresh (once), into a new folder.  :func:`key_the_cache` sets ``numba.config.CACHE_DIR`` and must run before the first
 ``@numba.njit(cache=True)`` is decorated: ``pneumatics/__init__.py`` calls it, and every
 compiled module imports :mod:`pneumatics` first.  A user's ``NUMBA_CACHE_DIR`` is kept as
 the parent folder; otherwise the folder lies under ``$XDG_CACHE_HOME`` (``~/.cache``).
@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 import time
 from pathlib import Path
@@ -31,17 +32,43 @@ KEEP_DAYS = 14
 PREFIX = "pneumasim-"
 
 
+#: ``from .x import``, ``from ..x import``, ``from . import x``, ``from pneumatics.x import``
+_IMPORT = re.compile(rb"^from\s+(\.+)?([\w.]*)\s+import\s+\(?([\w, ]*)", re.MULTILINE)
+
+
 def source_key(root: Path) -> str:
     """16 hex digits of a SHA-256 over the path and text of every ``*.py`` under ``root``'s
-    PACKAGES that mentions numba."""
+    PACKAGES that mentions numba, and of the project modules those import from (compiled code
+    freezes the constants it reads from them, e.g. the polynomial's degree in kernel.py)."""
+    compiled = [p for package in PACKAGES for p in sorted((root / package).rglob("*.py")) if b"numba" in p.read_bytes()]
+    files = set(compiled)
+    for path in compiled:
+        files.update(_imported(path, root))
     digest = hashlib.sha256()
-    for package in PACKAGES:
-        for path in sorted((root / package).rglob("*.py")):
-            text = path.read_bytes()
-            if b"numba" in text:
-                digest.update(str(path.relative_to(root)).encode())
-                digest.update(text)
+    for path in sorted(files):
+        digest.update(str(path.relative_to(root)).encode())
+        digest.update(path.read_bytes())
     return digest.hexdigest()[:16]
+
+
+def _imported(path: Path, root: Path) -> list[Path]:
+    """The project's source files that ``path`` imports from (one level)."""
+    out = []
+    for dots, module, names in _IMPORT.findall(path.read_bytes()):
+        if dots:
+            base = path.parent
+            for _ in range(len(dots) - 1):
+                base = base.parent
+        elif module.split(b".")[0].decode() in PACKAGES:
+            base = root
+        else:
+            continue
+        target = base.joinpath(*module.decode().split(".")) if module else base
+        candidates = [target.with_suffix(".py"), target / "__init__.py"]
+        if not module:  # from . import a, b: the modules a and b
+            candidates = [base / f"{n.split()[0]}.py" for n in names.decode().split(",") if n.strip()]
+        out += [c for c in candidates if c.is_file()]
+    return out
 
 
 def cache_parent() -> Path:

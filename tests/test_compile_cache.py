@@ -24,6 +24,22 @@ def test_the_key_changes_with_a_compiled_file_and_only_with_one(tmp_path):
     assert compile_cache.source_key(tmp_path) != first
 
 
+def test_the_key_follows_the_modules_compiled_code_imports_from(tmp_path):
+    """Compiled code freezes the constants it imports (kernel.py's polynomial degree from
+    flow_polynomial.py): a change there must change the key, one elsewhere must not."""
+    _tree(tmp_path, "import numba\nfrom .notes import Y\nfrom . import (consts)\n", "Y = 1\n")
+    (tmp_path / "pneumatics" / "consts.py").write_text("C = 1\n")
+    (tmp_path / "pneumatics" / "other.py").write_text("Z = 1\n")
+    first = compile_cache.source_key(tmp_path)
+    (tmp_path / "pneumatics" / "other.py").write_text("Z = 2\n")
+    assert compile_cache.source_key(tmp_path) == first
+    (tmp_path / "pneumatics" / "consts.py").write_text("C = 2\n")
+    second = compile_cache.source_key(tmp_path)
+    assert second != first
+    (tmp_path / "pneumatics" / "notes.py").write_text("Y = 2\n")
+    assert compile_cache.source_key(tmp_path) != second
+
+
 def test_importing_pneumatics_points_numba_at_the_current_sources():
     root = Path(pneumatics.__file__).resolve().parent.parent
     folder = Path(numba.config.CACHE_DIR)
