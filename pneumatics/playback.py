@@ -88,6 +88,8 @@ def play(sim, commands, steps: int) -> Playback:
         sim.warn_clipped(u[:done])
     if done < n_rows:
         _set_row(sim, u[done], done)  # the numpy path names the fault (and changes nothing)
+        # the numpy path refuses what command_step refused; never return rows that were not played
+        raise ArgumentError(f"play(commands): row {done}: refused by the compiled command path")
     return Playback(times, *out)
 
 
