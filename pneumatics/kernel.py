@@ -235,7 +235,10 @@ def _chamber_volume(i, prev_length, length, act, ch, dt):
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def _ros2_whole_step(p0, volume, vrate, a_s, a_e, glob, dt, m_extra):
-    """(pressure, accepted) of the first try of _adaptive_ros2: one ROS2 step over dt."""
+    """(pressure, accepted) of one ROS2 step over dt from p0: the first try of _adaptive_ros2
+    and each of its substeps.  Rejected: non-finite, too large a change, or the embedded
+    first-order solution p0 + dt k1 disagreeing by more than ERR_TOL (step-doubling control,
+    Hairer-Wanner IV.7)."""
     f0, jac = _rate(p0, volume, vrate, a_s, a_e, glob, m_extra)
     denom = 1.0 - GAMMA * dt * jac
     k1 = f0 / denom
@@ -258,18 +261,8 @@ def _adaptive_ros2(p0, volume, vrate, a_s, a_e, glob, dt, m_extra, first_level):
         q = p0
         ok = True
         for _ in range(n_sub):
-            f0, jac = _rate(q, volume, vrate, a_s, a_e, glob, m_extra)
-            denom = 1.0 - GAMMA * h * jac
-            k1 = f0 / denom
-            f1, _j = _rate(q + h * k1, volume, vrate, a_s, a_e, glob, m_extra)
-            k2 = (f1 - 2.0 * k1) / denom
-            q_new = q + 1.5 * h * k1 + 0.5 * h * k2
-            # reject: non-finite, too large a change, or the embedded first-order solution
-            # q + h k1 disagreeing by more than ERR_TOL (step-doubling control, Hairer-Wanner IV.7)
-            if not (math.isfinite(q_new) and abs(q_new - q) <= MAX_REL_CHANGE * q
-                    and 0.5 * h * abs(k1 + k2) <= ERR_TOL * q):
-                ok = False
-            q = q_new
+            q, accepted = _ros2_whole_step(q, volume, vrate, a_s, a_e, glob, h, m_extra)
+            ok = ok and accepted
         if ok:
             break
     return q
