@@ -40,6 +40,12 @@ class LineDynamics(Family):
     def effect_set_entry(self, params):
         return {"line_dynamics": {"delay_s": params.delay_s, "volume_m3": params.volume_m3}}
 
+    def add_to(self, effects, place: str, params) -> None:
+        """Delays in series add up (a valve dead time at the same chamber, valve_lag.py)."""
+        line = effects.line_dynamics.setdefault(place, {})
+        line["delay_s"] = line.get("delay_s", 0.0) + params.delay_s
+        line["volume_m3"] = line.get("volume_m3", 0.0) + params.volume_m3
+
     def mods_entry(self, params):
         return {"delay_s": params.delay_s, "extra_volume_m3": params.volume_m3}
 

@@ -1,4 +1,4 @@
-"""valve_lag: the spool follows its command through a first-order lag.
+"""valve_lag: the spool follows its command through a first-order lag, or a dead time.
 
 A proportional valve's spool is a position servo of finite bandwidth (paper 002: about 100 Hz
 for the Kokoro valves; a slower or damaged one lags more): tau x' = u - x, discretised exactly
@@ -10,6 +10,12 @@ Control of Dynamic Systems*, 3rd ed., §4.3)::
 The simulator advances the spool by it every physics step (taking the areas at mid-step), the
 doctor's replays filter the recorded commands on the same 1 ms grid
 (:func:`.valve_dynamics.first_order_lag`).
+
+The second form, a dead time (a valve driver's transport delay, a digital valve's update
+period): the spool takes the command of ``dead_time_s`` earlier, x(t) = u(t - T).  It is the
+delay of line_dynamics without the tube's volume, so it runs on that mechanism: the simulator's
+delayed spool history and the replays' :func:`.valve_dynamics.dead_time` (a line and a valve
+dead time at one chamber add their delays).
 """
 from __future__ import annotations
 
@@ -20,7 +26,7 @@ import numpy as np
 from .family import Family, param
 from .valve_dynamics import first_order_lag
 
-__all__ = ["FirstOrder", "ValveLag", "first_order_lag", "lag_decay"]
+__all__ = ["DeadTime", "FirstOrder", "ValveLag", "first_order_lag", "lag_decay"]
 
 
 def lag_decay(tau_s, dt: float):
@@ -36,20 +42,39 @@ class FirstOrder:
     time_constant_s: float = param(0.0, "time constant tau of the spool", "s", 0.0, 1.0)
 
 
+@dataclass(frozen=True)
+class DeadTime:
+    """A pure delay between command and spool."""
+
+    dead_time_s: float = param(0.0, "dead time T between the command and the spool", "s", 0.0, 1.0)
+
+
 class ValveLag(Family):
     name = "valve_lag"
     place_kind = "chamber"
-    forms = {"first_order": FirstOrder}
-    physics = "spool x follows the command u: tau x' = u - x"
+    forms = {"first_order": FirstOrder, "dead_time": DeadTime}
+    physics = "spool x follows the command u: tau x' = u - x, or x(t) = u(t - T)"
     sources = "paper 002 (valve bandwidth); Franklin, Powell & Workman §4.3 (exact discretisation)"
     simulator = "spool stepped every physics step (Simulation._advance_spool)"
     doctor = "pressure_replay"
     plants = ("valve_arm", "jetpipe")
 
     def effect_set_entry(self, params):
+        if isinstance(params, DeadTime):
+            return {"line_dynamics": {"delay_s": params.dead_time_s}}
         return {"valve_lag_s": params.time_constant_s}
 
+    def add_to(self, effects, place: str, params) -> None:
+        """A dead time adds to the delay of a line at the same chamber (the spool the chamber
+        sees is delayed by both); the first-order lag is set as the base class does."""
+        if not isinstance(params, DeadTime):
+            return super().add_to(effects, place, params)
+        line = effects.line_dynamics.setdefault(place, {})
+        line["delay_s"] = line.get("delay_s", 0.0) + params.dead_time_s
+
     def mods_entry(self, params):
+        if isinstance(params, DeadTime):
+            return {"delay_s": params.dead_time_s}
         return {"lag_s": params.time_constant_s}
 
     def draw(self, rng):

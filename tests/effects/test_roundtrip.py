@@ -70,6 +70,9 @@ PRESSURE_CASES = [
     # (a 0.5 ms lead: ~340 of the ~550 Pa on elbow.b), and the lag makes the elbow's loop ring
     # faster than 100 Hz samples of its motion resolve (~130 Pa on elbow.a, which has no lag)
     ("valve_lag", "first_order", "elbow.b", {"time_constant_s": 0.03}, 400.0, 10.0),
+    # a dead time runs on the line's delay mechanism, without its volume (and rings the loop
+    # like the line's delay)
+    ("valve_lag", "dead_time", "elbow.a", {"dead_time_s": 0.02}, 200.0, 10.0),
     # the delayed spool rings the loop likewise (~130 Pa on both elbow chambers)
     ("line_dynamics", "delay_volume", "elbow.a", {"delay_s": 0.02, "volume_m3": 2e-6}, 200.0, 10.0),
     ("heat_transfer", "newton", "shoulder.a", {"conductance_w_k": 0.1}, 100.0, 10.0),
