@@ -232,8 +232,9 @@ def _evidence(f: Finding) -> str:
         alt += ("; a constant force error of this cylinder: an offset on chamber a or on chamber b "
                 "(offset_pa_if_chamber_b), these sensors cannot tell which")
     judged = "" if f.scored.judged_by == "held-out data" else f" (judged by {f.scored.judged_by})"
+    seen = f"; {f.evidence}" if f.evidence else ""  # what a naming test saw (breakaway.py)
     return (f"{f.family} at {where} ({p}) removes {100 * f.heldout_gain:.0f} % of the held-out "
-            f"{'pressure' if f.scored.hyp.kind == 'pneumatic' else 'torque'} residual{judged}, concentrated in {f.regime}{alt}")
+            f"{'pressure' if f.scored.hyp.kind == 'pneumatic' else 'torque'} residual{judged}, concentrated in {f.regime}{alt}{seen}")
 
 
 def _finding_json(f: Finding) -> dict:

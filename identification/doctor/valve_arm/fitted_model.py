@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from pneumatics.effects.from_finding import STRIBECK_RAD_S, form_of
-from pneumatics.effects.registry import FAMILIES
+from pneumatics.effects.registry import FAMILIES, get_family
 from pneumatics.errors import ConfigError
 from pneumatics.fitted_model import FittedEffect, FittedModel, pneumasim_version, write_fitted
 
@@ -129,7 +129,12 @@ _PNEUMATIC_FORMS = {
 
 
 def _apply_pneumatic(pmods: PneumaticMods, e: FittedEffect, hyps: list, robot) -> PneumaticMods:
-    """e applied by the doctor's own hypothesis of that family, place and form."""
+    """e applied by the doctor's own hypothesis of that family, place and form (a valve dead
+    time, which the doctor finds as a line without volume (search.line_named), by its family's
+    own hook)."""
+    if (e.family, e.form) == ("valve_lag", "dead_time"):
+        fam = get_family("valve_lag")
+        return fam.apply_to_mods(pmods, robot, e.place, fam.params({"dead_time_s": e.value("dead_time_s")}, "dead_time"))
     names = _PNEUMATIC_FORMS.get((e.family, e.form))
     if names is None:
         raise ConfigError(f"{e.family} ({e.form}) at {e.place}: the doctor's replays have no such form")

@@ -14,6 +14,7 @@ from .joint_fit import fit_effect
 from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
 from .data import Experiment
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
+from .naming import friction_named, line_named
 from .pneumatic import PneumaticMods
 from .rules import (
     END_STOP_HYPOTHESES,
@@ -83,6 +84,8 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             run.tried.update(s.hyp.label for s in scored if set(s.hyp.chambers) & place and "supply" not in s.hyp.where)
             run.tried.add(finding.scored.hyp.label)
             continue
+        if finding.family == "line_dynamics":
+            finding = line_named(run, finding)
         run.findings.append(finding)
         run.tried.add(finding.scored.hyp.label)
         run.mods = finding.scored.mods
@@ -159,6 +162,8 @@ def _keep_mechanical(run: DoctorRun, finding: Finding, scored: list, base_h, blo
         return False
     if finding.family == "pressure_sensor_offset":
         finding = offset_place(run, finding, scored)
+    if finding.family == "coulomb_friction":
+        finding = friction_named(run, finding)
     run.findings.append(finding)
     best = finding.scored
     run.tried.update(s.hyp.label for s in scored if s.hyp.family == best.hyp.family

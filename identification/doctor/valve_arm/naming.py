@@ -1,0 +1,65 @@
+"""Name: the family a kept finding is reported as, from evidence its fit does not weigh.
+
+The search ranks hypotheses by what they remove from held-out residuals; two families can
+remove the same (a Coulomb level and a stiction whose sticking no velocity function holds; a
+delay with or without a tube's volume).  These steps look at what tells them apart and rename
+the finding, the other family going to its alternatives.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from .breakaway import breakaway_test
+from .rules import DoctorRun, Finding
+
+
+#: a line adds its tube's volume to the chamber (line_dynamics.py: 4 mm bore, 8-24 cm: 1-3
+#: cm^3 beside arm2's 3-4 cm^3); a delay whose fit adds less than this fraction of the
+#: chamber's dead volume is the valve's dead time.  On development recordings of the random-form
+#: generator, lines of three forms added 22-56 % (one distributed line 0 %), valve dead times
+#: and second-order spools 2-8 %.
+LINE_MIN_VOLUME_FRACTION = 0.15
+
+
+def line_named(run: DoctorRun, finding: Finding) -> Finding:
+    """A line_dynamics finding without a line's volume renamed valve_lag (its dead-time form):
+    the data show the chamber seeing its valve late, and nothing of a tube."""
+    volume = finding.params.get("volume_m3", {}).get("value", 0.0)
+    c = finding.scored.hyp.chambers[0]
+    dead = float(run.robot.tables.dead_volume[c])
+    if volume >= LINE_MIN_VOLUME_FRACTION * dead:
+        return finding
+    delay = finding.params["delay_s"]
+    return replace(finding, family="valve_lag", params={"dead_time_s": dict(delay)},
+                   alternatives=["line_dynamics"] + [a for a in finding.alternatives if a != "valve_lag"],
+                   evidence=(f"a delay of {1e3 * delay['value']:.1f} ms with {1e6 * volume:.2f} cm^3 of tube volume "
+                             f"(< {100 * LINE_MIN_VOLUME_FRACTION:.0f} % of the chamber's {1e6 * dead:.1f} cm^3): "
+                             "the valve's dead time, not a line"))
+
+
+def friction_named(run: DoctorRun, finding: Finding) -> Finding:
+    """A Coulomb-friction finding renamed stiction when its joint breaks away from its stick
+    phases at well above the sliding level (breakaway.breakaway_test).  The torque balance keeps
+    the Coulomb term; the breakaway excess F_s - F_c is reported beside it, measured on the stick
+    phases, with the Coulomb-friction finding as the alternative."""
+    s, j = finding.scored, finding.scored.hyp.joint
+    values = s.fit.values
+    P, k = len(run.td.names), len(s.hyp.params)
+    own = s.hyp.regressor(run.exp, run.td)
+    extra = own if run.base_extra is None else np.concatenate([run.base_extra[0], own], axis=2)
+    residual = (run.td.residual[:, j] - run.td.regressors[:, j] @ values[:P]
+                - extra[:, j, :-k] @ values[P:len(values) - k])  # friction left out
+    ok = run.td.valid if run.td.joint_ok is None else run.td.valid & run.td.joint_ok[:, j]
+    test = breakaway_test(residual, run.exp.qd[:, j], ok, run.td.rate_hz)
+    finding.evidence = test.evidence() if np.isfinite(test.ratio) else finding.evidence
+    if not test.stiction:
+        return finding
+    params = dict(finding.params)
+    coulomb = params["coulomb_nm"]["value"]  # the excess on the reported level: F_s = F_c (1 + excess ratio)
+    params["breakaway_extra_nm"] = {"value": (test.ratio - 1.0) * coulomb,
+                                    "stderr": float(np.hypot(test.ratio_stderr * coulomb,
+                                                             (test.ratio - 1.0) * params["coulomb_nm"]["stderr"]))}
+    return replace(finding, family="stiction", params=params,
+                   alternatives=["coulomb_friction"] + [a for a in finding.alternatives if a != "stiction"])

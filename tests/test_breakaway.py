@@ -1,0 +1,80 @@
+"""The stick-phase test (identification/doctor/valve_arm/breakaway.py) on a joint whose friction
+is known: a link under a slow sinusoidal torque with Karnopp friction (Karnopp 1985), sampled
+at 100 Hz as a recording is.  Its breakaway ratio is the static level over the sliding one."""
+import numpy as np
+import pytest
+
+from identification.doctor.valve_arm.breakaway import (
+    STICTION_BREAKAWAY_RATIO, breakaway_test, sliding_level, stick_phases)
+
+INERTIA = 0.02      # kg m^2, an arm2 link
+RATE_HZ = 100.0
+
+
+def karnopp_link(fs_nm: float, fc_nm: float, seconds: float = 30.0, seed: int = 0, noise_nm: float = 0.003):
+    """(residual, qd) at 100 Hz of a link with Karnopp friction (stuck while |v| < 1e-3 rad/s
+    and the drive torque |tau| <= fs, else fc against the motion), driven by a PD loop of
+    stiffness 4 N m/rad towards q_ref = 0.5 sin(2 pi 0.25 t) + 0.1 sin(2 pi 0.9 t): at every
+    reversal it sticks until the loop's torque reaches fs.  The residual is what the torque
+    balance sees with friction left out, tau - I qdd, plus sensor noise."""
+    dt = 1e-4
+    t = np.arange(0.0, seconds, dt)
+    ref = 0.5 * np.sin(2 * np.pi * 0.25 * t) + 0.1 * np.sin(2 * np.pi * 0.9 * t)
+    q, v = np.zeros_like(t), np.zeros_like(t)
+    tau = np.zeros_like(t)
+    for k in range(len(t) - 1):
+        tau[k] = 4.0 * (ref[k] - q[k]) - 0.05 * v[k]
+        if abs(v[k]) < 1e-3 and abs(tau[k]) <= fs_nm:
+            v[k + 1], q[k + 1] = 0.0, q[k]
+            continue
+        direction = np.sign(v[k]) if abs(v[k]) >= 1e-3 else np.sign(tau[k])
+        v[k + 1] = v[k] + dt * (tau[k] - fc_nm * direction) / INERTIA
+        q[k + 1] = q[k] + dt * v[k + 1]
+    step = int(round(1.0 / (RATE_HZ * dt)))
+    vs, taus = v[::step], tau[::step]
+    qdd = np.gradient(vs, 1.0 / RATE_HZ)
+    noise = np.random.default_rng(seed).normal(0.0, noise_nm, vs.size)
+    return taus - INERTIA * qdd + noise, vs
+
+
+@pytest.mark.parametrize("fs, fc", [(0.3, 0.1), (0.25, 0.1)])
+def test_stiction_breaks_away_at_its_static_level(fs, fc):
+    residual, qd = karnopp_link(fs, fc)
+    ok = np.ones_like(qd, bool)
+    assert sliding_level(residual, qd, ok) == pytest.approx(fc, rel=0.1)
+    test = breakaway_test(residual, qd, ok, RATE_HZ)
+    # it reads low, by up to ~20 %: the joint moves off between two samples and the
+    # differentiated velocity already takes in part of the slip's acceleration
+    assert 0.75 * fs / fc <= test.ratio <= 1.02 * fs / fc
+    assert test.stiction and test.phases >= 10
+
+
+def test_coulomb_friction_breaks_away_at_its_sliding_level():
+    residual, qd = karnopp_link(0.1, 0.1)
+    test = breakaway_test(residual, qd, np.ones_like(qd, bool), RATE_HZ)
+    assert test.ratio == pytest.approx(1.0, abs=0.2)
+    assert not test.stiction
+    assert test.ratio < STICTION_BREAKAWAY_RATIO
+
+
+def test_sensor_noise_alone_reads_no_breakaway():
+    """Noise three times the friction level (a weak friction on a noisy joint) inflates every
+    window's maximum alike: measured against the sliding windows, no stiction appears."""
+    residual, qd = karnopp_link(0.05, 0.05, noise_nm=0.15)
+    test = breakaway_test(residual, qd, np.ones_like(qd, bool), RATE_HZ)
+    assert not test.stiction
+    assert abs(test.ratio - 1.0) < 3 * test.ratio_stderr + 0.2
+
+
+def test_stick_phases_need_their_length_and_usable_samples():
+    qd = np.array([1.0] * 5 + [0.0] * 2 + [1.0] * 5 + [0.0] * 6 + [1.0] * 5)
+    ok = np.ones(qd.size, bool)
+    assert stick_phases(qd, ok, RATE_HZ) == [(12, 18)]   # the 2-sample dwell is a reversal
+    ok[14] = False
+    assert stick_phases(qd, ok, RATE_HZ) == [(15, 18)]
+
+
+def test_no_sliding_samples_give_no_ratio():
+    qd = np.zeros(500)
+    test = breakaway_test(np.zeros(500), qd, np.ones(500, bool), RATE_HZ)
+    assert np.isnan(test.ratio) and not test.stiction
