@@ -141,6 +141,41 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
     return out
 
 
+#: the angle profile's bin [rad]: four bins to the period of the finest position-periodic
+#: torque worth naming (detents, cogging of a 5 deg pitch: 0.087 rad), far wider than the
+#: angle noise (~1e-4 rad) and the filter's lag at the joints' speeds
+ANGLE_PROFILE_BIN_RAD = 0.02
+#: a bin the training data visit less than this [samples] joins its neighbour: its mean would be noise
+ANGLE_PROFILE_MIN_SAMPLES = 20
+
+
+def angle_profile_yardstick(robot, j: int, exp) -> Hypothesis:
+    """Not an effect: a torque of joint j's angle alone, one constant per ANGLE_PROFILE_BIN_RAD
+    bin of the angles the training data ``exp`` visit (a histogram regression).
+
+    The smooth yardstick's functions of the angle are a constant, q and q^2; a detent, cogging
+    or a cam's torque changes sign many times over the range and none of them follows it.  This
+    one follows any torque of the angle that varies more slowly than its bins; the angles the
+    training data did not visit take their nearest bin's value."""
+    q = exp.q_s[:, j]
+    edges = np.arange(q.min(), q.max(), ANGLE_PROFILE_BIN_RAD)[1:]
+    counts = np.bincount(np.digitize(q, edges), minlength=edges.size + 1)
+    while edges.size and counts.min() < ANGLE_PROFILE_MIN_SAMPLES:  # merge the emptiest bin into a neighbour
+        k = int(np.argmin(counts))
+        drop = min(k, edges.size - 1)
+        edges = np.delete(edges, drop)
+        counts = np.bincount(np.digitize(q, edges), minlength=edges.size + 1)
+
+    def reg(e, td, edges=edges):
+        n, J = e.qd.shape
+        out = np.zeros((n, J, edges.size + 1))
+        out[np.arange(n), j, np.digitize(e.q_s[:, j], edges)] = 1.0
+        return out
+    names = [f"bin_{k}_nm" for k in range(edges.size + 1)]
+    return Hypothesis("angle_profile", {"joint": robot.joint_names[j]}, "mechanical",
+                      [(n, 0.0, -np.inf, np.inf, 0.0) for n in names], joint=j, regressor=reg)
+
+
 def _joint_regs(j, fns):
     def reg(exp, td):
         n, J = exp.qd.shape

@@ -11,6 +11,7 @@ from identification.base.statistics import bootstrap_inclusion, locate_regime, r
 
 from .flex_check import flexible_unexplained
 from .pneumatic import PneumaticMods, replay
+from .hypotheses import ANGLE_PROFILE_BIN_RAD
 from .regimes import chamber_regimes, joint_regimes
 from .rules import HORIZON, MECH_KEEP, PNEU_KEEP, TRAIN_RATIO, UNEXPLAINED_RATIO, DoctorRun, Finding
 from .search import apply_offset, joint_residual, mech_block, stacked_regressors
@@ -46,7 +47,7 @@ def locate(run: DoctorRun, flags: list) -> Located:
             _locate_pneumatic(run, f, meas_h, res_h, idx_h, t_h)
         else:
             _locate_mechanical(run, f)
-    unexplained = [outside_torque(run.robot, held, run.td_h, run.rfit, j, f, gain) for j, f, gain in run.outside]
+    unexplained = [outside_torque(run.robot, held, run.td_h, run.rfit, j, f, gain, by) for j, f, gain, by in run.outside]
     rms_c = np.sqrt(np.mean(res_h ** 2, axis=(0, 1)))
     pred_t, meas_t = replay(run.exp, run.win, mods)
     rms_t = np.sqrt(np.mean((pred_t - meas_t) ** 2, axis=(0, 1)))
@@ -122,8 +123,10 @@ def _unexplained_chambers(run: DoctorRun, res_h, res_base_h, rms_c, rms_t, idx_h
     return out
 
 
-def outside_torque(robot, held, td_h, rfit, j: int, best: Finding | None, yard_gain: float) -> dict:
+def outside_torque(robot, held, td_h, rfit, j: int, best: Finding | None, yard_gain: float,
+                   by: str = "state") -> dict:
     """The unexplained entry of joint j, whose torque residual a smooth function of its state
+    (``by`` "state") or a torque of its angle alone ("angle": search.outside_without_finding)
     takes up far better than the library's best effect (``best``; None: no library effect paid
     at all there)."""
     r = joint_residual(td_h, rfit, j)
@@ -133,11 +136,17 @@ def outside_torque(robot, held, td_h, rfit, j: int, best: Finding | None, yard_g
     name, _, _ = locate_regime(r, joint_regimes(held, j))
     return {"where": {"joint": robot.joint_names[j]}, "regime": name, "residual": "torque",
             "share_of_residual": float(yard_gain), "windows": windows(held.t, r),
-            "evidence": f"a smooth torque of the joint's angle and velocity removes {100 * yard_gain:.0f} % of its "
+            "depends_on": ["joint angle and velocity"] if by == "state" else ["joint angle"],
+            "evidence": (f"a smooth torque of the joint's angle and velocity removes {100 * yard_gain:.0f} % of its "
+                         if by == "state" else
+                         f"a torque of the joint's angle alone, in {ANGLE_PROFILE_BIN_RAD:g} rad bins, removes "
+                         f"{100 * yard_gain:.0f} % of its ")
                         + (f"held-out torque residual, the library's best ({best.family}) only "
                            f"{100 * best.heldout_gain:.0f} %" if best is not None else
                            "held-out torque residual, and no library effect pays there")
-                        + ": a torque the library does not hold (a spring, a hose or cable pulling on the link, ...)"}
+                        + (": a torque the library does not hold (a spring, a hose or cable pulling on the link, ...)"
+                           if by == "state" else
+                           ": a torque the library does not hold that varies along the angle (a detent, cogging, a cam)")}
 
 
 def without_finding(mods: PneumaticMods, f: Finding) -> PneumaticMods:
