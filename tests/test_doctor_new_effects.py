@@ -5,6 +5,7 @@ diagnosed from its CSV files alone; slow (1-4 min each), so outside the default 
 import pytest
 
 from identification.doctor.valve_arm.diagnose import diagnose
+from identification.doctor.valve_arm.report import write
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from scenarios._cases import make_case, make_spring_case
@@ -80,6 +81,9 @@ def test_a_joint_spring_outside_the_library_is_unexplained_at_its_joint(tmp_path
     (u,) = [u for u in rep["unexplained"] if u["where"] == {"joint": "shoulder"}]
     assert u["share_of_residual"] > 0.5  # seen: 0.96
     assert u["regime"] == "lower third of the angles visited"  # furthest from the rest angle
+    assert u["depends_on"] == ["joint angle and velocity"] and u["suggests"] == []
+    write(rep, tmp_path / "out", load_robot("arm2"), rerun=False)  # the entry reads in report.md
+    assert '{"joint": "shoulder"}' in (tmp_path / "out" / "report.md").read_text()
 
 
 @pytest.mark.slow

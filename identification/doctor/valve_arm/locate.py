@@ -137,6 +137,7 @@ def outside_torque(robot, held, td_h, rfit, j: int, best: Finding | None, yard_g
     return {"where": {"joint": robot.joint_names[j]}, "regime": name, "residual": "torque",
             "share_of_residual": float(yard_gain), "windows": windows(held.t, r),
             "depends_on": ["joint angle and velocity"] if by == "state" else ["joint angle"],
+            "suggests": [],  # a yardstick, not a family: nothing of the library took it up
             "evidence": (f"a smooth torque of the joint's angle and velocity removes {100 * yard_gain:.0f} % of its "
                          if by == "state" else
                          f"a torque of the joint's angle alone, in {ANGLE_PROFILE_BIN_RAD:g} rad bins, removes "

@@ -200,7 +200,7 @@ def _markdown(report, pngs, fitted: bool = False) -> str:
     if report["unexplained"]:
         for u in report["unexplained"]:
             carried = (f" Depends on: {', '.join(u['depends_on'])}; families these inputs suggest: "
-                       f"{', '.join(u['suggests']) or 'none in the library'}." if u.get("depends_on") else "")
+                       f"{', '.join(u.get('suggests', [])) or 'none in the library'}." if u.get("depends_on") else "")
             lines.append(f"- {json.dumps(u['where'])}, {u['regime']}: {100 * u['share_of_residual']:.0f} % of the "
                          f"held-out {u.get('residual', 'pressure')} residual; windows {u['windows']}. {u['evidence']}."
                          + carried)
