@@ -78,3 +78,31 @@ def test_no_sliding_samples_give_no_ratio():
     qd = np.zeros(500)
     test = breakaway_test(np.zeros(500), qd, np.ones(500, bool), RATE_HZ)
     assert np.isnan(test.ratio) and not test.stiction
+
+
+def test_the_doctor_names_karnopp_sticking_stiction_and_hands_back_the_model_it_proved(tmp_path):
+    """A shoulder with Karnopp stick-slip friction (F_s 0.12-0.25 N m, F_c 0.3-0.5 F_s) in a
+    recording of the random-form generator: the search fits a Coulomb level, the stick phases
+    name it stiction with its breakaway excess, and the fitted model (Coulomb plus breakaway)
+    replays the held-out recording to the report's after-NRMSE."""
+    from identification.doctor.valve_arm.diagnose import diagnose
+    from identification.doctor.valve_arm.fitted_model import heldout_replay
+    from identification.doctor.valve_arm.report import write
+    from pneumatics.recording import read_csv
+    from pneumatics.robot import load_robot
+    from scenarios._variantsim.cases import make_case
+
+    truth = make_case(tmp_path, 883927825, ["stiction"], forms=["karnopp_stick_slip"], name="karnopp")
+    assert truth["effects"][0]["where"] == {"joint": "shoulder"}
+    held = [read_csv(tmp_path / "karnopp_heldout.csv")]
+    report = diagnose(load_robot("arm2"), [read_csv(tmp_path / "karnopp.csv")], held)
+    (f,) = report["findings"]
+    assert (f["effect"], f["where"], f["alternatives"][0]) == ("stiction", {"joint": "shoulder"}, "coulomb_friction")
+    assert f["parameters"]["breakaway_extra_nm"]["value"] > 0.5 * f["parameters"]["coulomb_nm"]["value"]
+    assert "breaks away at" in f["evidence"]
+    assert f["heldout_nrmse"]["after"] < f["heldout_nrmse"]["before"]
+    write(report, tmp_path / "out", load_robot("arm2"), rerun=False)
+    fitted = load_robot("arm2", fitted=tmp_path / "out" / "model.toml")
+    after = heldout_replay(fitted, held).nrmse()
+    for ch, v in report["after"]["heldout_nrmse"].items():
+        assert after[ch] == pytest.approx(v, rel=1e-9), ch

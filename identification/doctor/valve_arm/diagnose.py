@@ -34,6 +34,7 @@ from .fitted_model import fitted_model
 from .locate import Located, locate, mods_without_all
 from .mechanics import fit_rigid_body, torque_data
 from .pneumatic import PneumaticMods, Windows
+from .naming import add_breakaway
 from .replay import MechMods, coupled_replay
 from .rules import HOLDOUT_SHARE, HORIZON, DoctorRun, Finding
 from .search import search_mechanical, search_pneumatic, start_torque_balance
@@ -124,6 +125,7 @@ def _prove(run: DoctorRun) -> dict:
     mm_final = MechMods.from_fit(run.final_rfit, robot.joint_names, run.extra_terms)
     mm_final.end_stops = {h.joint: (h.fixed["stop_rad"]["value"], h.fixed["side_sign"]["value"])
                           for h in run.kept_mech if h.family == "end_stop"}
+    add_breakaway(mm_final, run.findings, len(robot.joint_names))
     base_replay = coupled_replay(held, mods_without_all(run.mods, run.findings), mm_base)
     nominal_replay = coupled_replay(held, run.nominal, MechMods())
     final_replay = coupled_replay(held, run.mods, mm_final)

@@ -63,3 +63,15 @@ def friction_named(run: DoctorRun, finding: Finding) -> Finding:
                                                              (test.ratio - 1.0) * params["coulomb_nm"]["stderr"]))}
     return replace(finding, family="stiction", params=params,
                    alternatives=["coulomb_friction"] + [a for a in finding.alternatives if a != "stiction"])
+
+
+def add_breakaway(mm, findings: list, n_joints: int) -> None:
+    """Put the breakaway excess of every stiction finding the stick-phase test named into the
+    replays' mechanical model ``mm`` (replay.MechMods): the torque balance kept its Coulomb term
+    alone, and the fitted model the user gets carries both (fitted_model.replay_mods), so the
+    held-out replays that prove the findings run the same model."""
+    for f in findings:
+        if f.family == "stiction" and f.scored.hyp.family == "coulomb_friction":
+            extra = np.zeros(n_joints) if mm.stiction_extra_nm is None else mm.stiction_extra_nm
+            extra[f.scored.hyp.joint] += f.params["breakaway_extra_nm"]["value"]
+            mm.stiction_extra_nm = extra
