@@ -120,6 +120,7 @@ _PNEUMATIC_FORMS = {
     ("piston_leak", "laminar"): ("conductance_kg_s_pa",),
     ("valve_hysteresis", "play"): ("half_width_v",),
     ("valve_lag", "first_order"): ("time_constant_s",),
+    ("valve_lag", "dead_time"): ("dead_time_s",),   # no hypothesis of its own: search.line_named
     ("line_dynamics", "delay_volume"): ("delay_s",),
     ("heat_transfer", "newton"): ("conductance_w_k",),
     ("pressure_sensor_offset", "additive"): ("offset_pa",),
