@@ -47,3 +47,29 @@ def test_the_dead_time_form_delays_the_spool_as_a_line_without_volume(arm2):
     other_order = EffectSet().add("line_dynamics", "elbow.a", {"delay_s": 0.005, "volume_m3": 1e-6})
     other_order.add("valve_lag", "elbow.a", {"dead_time_s": 0.01}, "dead_time")
     assert other_order.line_arrays(arm2)[0][2] == pytest.approx(0.015)
+
+
+def test_the_doctor_names_a_valve_dead_time_and_hands_back_the_model_it_proved(tmp_path):
+    """A 5-25 ms dead time of one valve in a recording of the random-form generator (no tube):
+    the search's line hypothesis fits the delay with almost no volume, the finding is the
+    valve's dead time, and the fitted model replays the held-out recording to the report."""
+    from identification.doctor.valve_arm.diagnose import diagnose
+    from identification.doctor.valve_arm.fitted_model import heldout_replay
+    from identification.doctor.valve_arm.report import write
+    from pneumatics.recording import read_csv
+    from pneumatics.robot import load_robot
+    from scenarios._variantsim.cases import make_case
+
+    truth = make_case(tmp_path, 263004997, ["valve_lag"], forms=["dead_time"], name="dead")
+    where = truth["effects"][0]["where"]
+    held = [read_csv(tmp_path / "dead_heldout.csv")]
+    report = diagnose(load_robot("arm2"), [read_csv(tmp_path / "dead.csv")], held)
+    f = report["findings"][0]
+    assert (f["effect"], f["form"], f["where"]) == ("valve_lag", "dead_time", where)
+    assert f["alternatives"][0] == "line_dynamics"
+    assert 0.005 < f["parameters"]["dead_time_s"]["value"] < 0.025
+    write(report, tmp_path / "out", load_robot("arm2"), rerun=False)
+    fitted = load_robot("arm2", fitted=tmp_path / "out" / "model.toml")
+    after = heldout_replay(fitted, held).nrmse()
+    for ch, v in report["after"]["heldout_nrmse"].items():
+        assert after[ch] == pytest.approx(v, rel=1e-9), ch
