@@ -308,8 +308,11 @@ def outside_without_finding(robot, exp, td, held, td_h, findings, outside, kept_
         for j, yard in zip(todo, yards):
             heldout_torque(yard, held, td_h, kept_mech, base_extra, base_h, block)
             k = len(yard.hyp.params)
-            t = np.abs(yard.fit.values[-k:]) / yard.fit.stderr[-k:]
-            if yard.heldout_gain >= MECH_KEEP and np.nanmax(t) >= MIN_T:
+            values, stderr = np.abs(yard.fit.values[-k:]), yard.fit.stderr[-k:]
+            # an angle bin the fit's valid samples leave empty has no error bar: no evidence
+            ok = np.isfinite(stderr) & (stderr > 0)
+            t = values[ok] / stderr[ok]
+            if yard.heldout_gain >= MECH_KEEP and t.size and t.max() >= MIN_T:
                 out.append((j, None, yard.heldout_gain, by))
         todo = [j for j in todo if j not in {o[0] for o in out}]
         if not todo:
