@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from identification.base.statistics import robust_ceiling
+
 from .flex_check import partial_projection, suggested_candidates
 from .joint_fit import fit_effect
 from .hypotheses import angle_profile_yardstick, mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
@@ -305,14 +307,18 @@ def outside_without_finding(robot, exp, td, held, td_h, findings, outside, kept_
                      ("angle", lambda j: angle_profile_yardstick(robot, j, exp))):
         yards, base = score_mechanical(td, exp, [make(j) for j in todo], base_extra)
         base_h = torque_rms(td_h, base, None if base_extra is None else stacked_regressors(kept_mech, held, td_h), block)
-        for j, yard in zip(todo, yards):
+        for yard in yards:
             heldout_torque(yard, held, td_h, kept_mech, base_extra, base_h, block)
+        # on a robot with many joints, also above their spread: the floor set per robot from the
+        # data, as for the chambers (flexible.paying)
+        floor = max(MECH_KEEP, robust_ceiling([y.heldout_gain for y in yards]))
+        for j, yard in zip(todo, yards):
             k = len(yard.hyp.params)
             values, stderr = np.abs(yard.fit.values[-k:]), yard.fit.stderr[-k:]
             # an angle bin the fit's valid samples leave empty has no error bar: no evidence
             ok = np.isfinite(stderr) & (stderr > 0)
             t = values[ok] / stderr[ok]
-            if yard.heldout_gain >= MECH_KEEP and t.size and t.max() >= MIN_T:
+            if yard.heldout_gain >= floor and t.size and t.max() >= MIN_T:
                 out.append((j, None, yard.heldout_gain, by))
         todo = [j for j in todo if j not in {o[0] for o in out}]
         if not todo:
