@@ -296,7 +296,8 @@ def outside_without_finding(robot, exp, td, held, td_h, findings, outside, kept_
     pneumatic-only cases, the published truthsim ones): the yardstick's held-out gain was 0.025
     at most; none of the 94 cases of the arm2 blind and variant benchmarks was reported
     unexplained this way.  The angle profile's held-out gain on the 24 joints of 12 development
-    nulls of the random-form generator: -0.02 or less; on its two cogging joints 0.94 and 0.97."""
+    nulls of the random-form generator: -0.02 or less; on its two cogging joints 0.94 and 0.97.
+    With 12 joints or more a gain must also stand out of the joints' (statistics.robust_ceiling)."""
     done = {f.scored.hyp.joint for f in findings if f.scored.hyp.kind == "mechanical"} | {j for j, *_ in outside}
     todo = [j for j in range(len(robot.joint_names)) if j not in done]
     if not todo:
