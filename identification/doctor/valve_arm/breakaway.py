@@ -71,12 +71,16 @@ class Breakaway:
                 f"friction (median over {self.phases} stick phases, stiction from {STICTION_BREAKAWAY_RATIO:g} on)")
 
 
+def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(starts, ends) of the runs of True in ``mask`` (ends exclusive)."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return edges[0::2], edges[1::2]
+
+
 def stick_phases(qd: np.ndarray, ok: np.ndarray, rate_hz: float) -> list[tuple[int, int]]:
     """(start, end) sample ranges where |qd| < STUCK_RAD_S for at least STICK_MIN_S on usable
     samples (``ok``), ending before the record's last samples (the breakaway must be seen)."""
-    stuck = (np.abs(qd) < STUCK_RAD_S) & ok
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], stuck.astype(np.int8), [0]])))
-    starts, ends = edges[0::2], edges[1::2]
+    starts, ends = _runs((np.abs(qd) < STUCK_RAD_S) & ok)
     min_len = max(int(round(STICK_MIN_S * rate_hz)), 2)
     after = int(round(LOOK_AFTER_S * rate_hz))
     return [(int(a), int(b)) for a, b in zip(starts, ends) if b - a >= min_len and b + after < len(qd)]
@@ -106,11 +110,6 @@ def sliding_fit(residual: np.ndarray, qd: np.ndarray, ok: np.ndarray) -> tuple[f
 def sliding_level(residual: np.ndarray, qd: np.ndarray, ok: np.ndarray) -> float:
     """F_c [N m] of :func:`sliding_fit`."""
     return sliding_fit(residual, qd, ok)[0]
-
-
-def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
-    return edges[0::2], edges[1::2]
 
 
 def sliding_peaks(residual: np.ndarray, qd: np.ndarray, sliding: np.ndarray, viscous: float,

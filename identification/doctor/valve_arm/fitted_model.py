@@ -120,7 +120,7 @@ _PNEUMATIC_FORMS = {
     ("piston_leak", "laminar"): ("conductance_kg_s_pa",),
     ("valve_hysteresis", "play"): ("half_width_v",),
     ("valve_lag", "first_order"): ("time_constant_s",),
-    ("valve_lag", "dead_time"): ("dead_time_s",),   # no hypothesis of its own: search.line_named
+    ("valve_lag", "dead_time"): ("dead_time_s",),   # no hypothesis of its own: naming.line_named
     ("line_dynamics", "delay_volume"): ("delay_s",),
     ("heat_transfer", "newton"): ("conductance_w_k",),
     ("pressure_sensor_offset", "additive"): ("offset_pa",),
@@ -131,7 +131,7 @@ _PNEUMATIC_FORMS = {
 
 def _apply_pneumatic(pmods: PneumaticMods, e: FittedEffect, hyps: list, robot) -> PneumaticMods:
     """e applied by the doctor's own hypothesis of that family, place and form (a valve dead
-    time, which the doctor finds as a line without volume (search.line_named), by its family's
+    time, which the doctor finds as a line without volume (naming.line_named), by its family's
     own hook)."""
     if (e.family, e.form) == ("valve_lag", "dead_time"):
         fam = get_family("valve_lag")
