@@ -36,7 +36,7 @@ from .effects.friction import friction_torque
 from .effects.heat_transfer import thermal_step
 from .effects.valve_hysteresis import play_step
 from .effects.valve_lag import lag_decay
-from .effects.valve_leak import leak_areas
+from .effects.valve_leak import leak_areas, underlap_areas
 from . import arguments
 from .errors import ArgumentError, PneumasimError
 from .command_kernel import CLIPPED, OK
@@ -117,6 +117,10 @@ class Simulation:
         exhaust = self.effects.chamber_array(robot, "valve_leak_exhaust_m2")
         given = np.array([f"{a}.{c}" in self.effects.valve_leak_exhaust_m2 for a, c in robot.chamber_names])
         self._valve_leak_exhaust = np.where(given, exhaust, self._valve_leak)  # symmetric unless given
+        self._underlap_m2, self._underlap_v = self.effects.underlap_arrays(robot)
+        # an underlapped valve's areas are set by the numpy command path (_update_areas); the
+        # compiled command step knows the Gaussian leak alone
+        self._numpy_command = bool(self._underlap_m2.any())
         self._hysteresis = self.effects.chamber_array(robot, "valve_hysteresis_v")
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
         self._q_offset = self.effects.joint_array(robot, "angle_offset_rad")
@@ -219,7 +223,7 @@ class Simulation:
         if u.shape != self.command.shape:
             raise ArgumentError(f"set_command(command_v): expected shape {self.command.shape} "
                                 f"(one per chamber), got {u.shape}")
-        if self.kernel == "fast" and not self._valve_dynamics:
+        if self.kernel == "fast" and self.valve_dynamics_free:
             status = self._command_call()(u)
             if status == CLIPPED:
                 self.warn_clipped(u)
@@ -282,6 +286,9 @@ class Simulation:
             leak_s, leak_e = leak_areas(spool, self.tables.valve[:, 0], self._valve_leak, self._valve_leak_exhaust,
                                         self.effects.valve_leak_width_v)
             a_s, a_e = a_s + leak_s, a_e + leak_e
+        if self._numpy_command:  # valve_leak (underlap): the opening land stays open by the underlap
+            lap_s, lap_e = underlap_areas(spool, self.tables.valve[:, 0], self._underlap_m2, self._underlap_v)
+            a_s, a_e = a_s + lap_s, a_e + lap_e
         self.areas[:, 0], self.areas[:, 1] = a_s, a_e
 
     # -- stepping ------------------------------------------------------------------------
@@ -367,8 +374,9 @@ class Simulation:
     @property
     def valve_dynamics_free(self) -> bool:
         """Whether a command sets the valve areas at once (no valve lag or line delay moving the
-        spool between commands), so that command_step is the whole of set_command."""
-        return not self._valve_dynamics
+        spool between commands, no underlapped valve), so that command_step is the whole of
+        set_command."""
+        return not (self._valve_dynamics or self._numpy_command)
 
     def sensor_maps(self) -> tuple:
         """(qpos addresses (n_joint,), qvel addresses (n_joint,), angle offsets (n_joint,) [rad],

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import ConfigError, UnknownNameError
 from .end_stop import END_STOP_TIMECONST_S
-from .valve_leak import WIDTH_V
+from .valve_leak import UNDERLAP_WIDTH_V, WIDTH_V
 
 
 @dataclass
@@ -30,6 +30,9 @@ class EffectSet:
     """chamber -> the leak's exhaust-side area [m^2] where it differs from the supply side's
     (``valve_leak_m2``): the two lands of a spool need not be underlapped alike, which moves the
     pressure the leak pulls the chamber towards"""
+    valve_underlap: dict = field(default_factory=dict)
+    """chamber -> {"area_m2": area each land is open at null [m^2], "width_v": the underlap [V]}
+    (valve_leak, underlap form: effects.valve_leak.underlap_areas)"""
     valve_leak_width_v: float = WIDTH_V
     """command distance from null over which the valve_leak closes [V] (effects.valve_leak)"""
     external_leak_m2: dict = field(default_factory=dict)
@@ -125,6 +128,17 @@ class EffectSet:
             volume[names.index(key)] = v.get("volume_m3", 0.0)
         return delay, volume
 
+    def underlap_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
+        """(area_m2, width_v), each (n_ch,), of the underlapped valves (area 0 elsewhere)."""
+        names = [f"{a}.{c}" for a, c in robot.chamber_names]
+        area, width = np.zeros(len(names)), np.full(len(names), UNDERLAP_WIDTH_V)
+        for key, v in self.valve_underlap.items():
+            if key not in names:
+                raise UnknownNameError("chamber", key, names)
+            area[names.index(key)] = v.get("area_m2", 0.0)
+            width[names.index(key)] = v.get("width_v", UNDERLAP_WIDTH_V)
+        return area, width
+
     def heat_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
         """(thermal mask (n_ch,) bool, conductance [W/K] (n_ch,)) of the heat_transfer effects."""
         names = [f"{a}.{c}" for a, c in robot.chamber_names]
@@ -164,7 +178,7 @@ class EffectSet:
 
     @property
     def empty(self) -> bool:
-        return not any((self.friction, self.valve_leak_m2, self.valve_leak_exhaust_m2, self.external_leak_m2, self.piston_leak_m2,
+        return not any((self.friction, self.valve_leak_m2, self.valve_leak_exhaust_m2, self.valve_underlap, self.external_leak_m2, self.piston_leak_m2,
                         self.external_leak_laminar_kg_s_pa, self.piston_leak_laminar_kg_s_pa,
                         self.valve_hysteresis_v, self.pressure_offset_pa, self.angle_offset_rad,
                         self.supply_droop_pa_per_kg_s, self.valve_lag_s, self.line_dynamics, self.end_stop,

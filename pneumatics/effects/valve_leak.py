@@ -12,6 +12,15 @@ Theory 7, 1999, for the pneumatic spool's leakage near null)::
 
 Two forms: ``symmetric`` (both lands alike, a_s = a_e) and ``asymmetric`` (two areas: the lands
 underlapped unequally, which moves the pressure a chamber at null settles at).
+
+A third, ``underlap``, is the underlapped spool of Merritt (1967, §3.6, the orifice areas of
+an underlapped four-way valve, w (U + x) and w (U - x)): each land is open by the underlap at
+null; the land the spool moves away from closes over the underlap width, the one it opens stays
+open by the underlap on top of the valve's own opening (the area curve shifted, not a bump)::
+
+    A_s,leak = a clip(1 + (u - u_null) / w_u, 0, 1),   A_e,leak = a clip(1 - (u - u_null) / w_u, 0, 1)
+
+with a the area at null and w_u the underlap in command volts.
 """
 from __future__ import annotations
 
@@ -33,6 +42,17 @@ def leak_areas(u, null_v, supply_m2, exhaust_m2, width_v: float = WIDTH_V):
     return supply_m2 * g, exhaust_m2 * g
 
 
+UNDERLAP_WIDTH_V = 0.6
+"""w_u [V]: the underlap width the doctor assumes (it fits the area; 0.6 V, the Gaussian's width)"""
+
+
+def underlap_areas(u, null_v, area_m2, width_v):
+    """(supply, exhaust) extra areas [m^2] of an underlapped spool (the ``underlap`` form) at
+    commands ``u`` [V] of valves whose null is ``null_v`` [V]; arrays broadcast."""
+    x = (np.asarray(u, float) - null_v) / width_v
+    return area_m2 * np.clip(1.0 + x, 0.0, 1.0), area_m2 * np.clip(1.0 - x, 0.0, 1.0)
+
+
 @dataclass(frozen=True)
 class SymmetricLeak:
     """Both lands of the spool leak alike."""
@@ -48,11 +68,21 @@ class AsymmetricLeak:
     exhaust_leak_area_m2: float = param(0.0, "extra exhaust-side area at null", "m^2", 0.0, 1e-5)
 
 
+@dataclass(frozen=True)
+class UnderlapLeak:
+    """An underlapped spool: both lands open at null, the opening one stays open by the underlap."""
+
+    underlap_area_m2: float = param(0.0, "area each land is open at null (the underlap's)", "m^2", 0.0, 1e-5)
+    underlap_width_v: float = param(UNDERLAP_WIDTH_V, "the underlap in command volts: a land closes over it",
+                                    "V", 0.05, 5.0, magnitude=False)
+
+
 class ValveLeak(Family):
     name = "valve_leak"
     place_kind = "chamber"
-    forms = {"symmetric": SymmetricLeak, "asymmetric": AsymmetricLeak}
-    physics = "extra supply and exhaust areas, a Gaussian of width 0.6 V around the valve's null"
+    forms = {"symmetric": SymmetricLeak, "asymmetric": AsymmetricLeak, "underlap": UnderlapLeak}
+    physics = ("extra supply and exhaust areas, a Gaussian of width 0.6 V around the valve's null; or an "
+               "underlapped spool's area curve, shifted by the underlap")
     sources = "Merritt 1967 §3.6 (underlapped spools); Sorli et al. 1999"
     simulator = "valve areas at each spool position (Simulation._update_areas)"
     doctor = "pressure_replay"
@@ -63,17 +93,25 @@ class ValveLeak(Family):
         return params.leak_area_m2, params.leak_area_m2
 
     def effect_set_entry(self, params):
+        if isinstance(params, UnderlapLeak):
+            return {"valve_underlap": {"area_m2": params.underlap_area_m2, "width_v": params.underlap_width_v}}
         if isinstance(params, AsymmetricLeak):
             return {"valve_leak_m2": params.supply_leak_area_m2, "valve_leak_exhaust_m2": params.exhaust_leak_area_m2}
         return {"valve_leak_m2": params.leak_area_m2}
 
     def apply_to_mods(self, mods, robot, place, params):
         """PneumaticMods.valve_leak_m2 at the chamber; its exhaust side where it differs (the other
-        chambers' leaks keep their own, symmetric unless set)."""
+        chambers' leaks keep their own, symmetric unless set); the underlap form's own arrays."""
         names = place_names(robot, "chamber")
         if place not in names:
             raise UnknownNameError("chamber", place, names)
         c = names.index(place)
+        if isinstance(params, UnderlapLeak):
+            area = np.zeros(len(names)) if mods.valve_underlap_m2 is None else mods.valve_underlap_m2.copy()
+            width = (np.full(len(names), UNDERLAP_WIDTH_V) if mods.valve_underlap_width_v is None
+                     else mods.valve_underlap_width_v.copy())
+            area[c], width[c] = params.underlap_area_m2, params.underlap_width_v
+            return mods.copy(valve_underlap_m2=area, valve_underlap_width_v=width)
         supply, exhaust = self._areas(params)
         sup = np.zeros(len(names)) if mods.valve_leak_m2 is None else mods.valve_leak_m2.copy()
         exh = None if mods.valve_leak_exhaust_m2 is None else mods.valve_leak_exhaust_m2.copy()

@@ -61,6 +61,7 @@ def pressure_error_pa(exp, mods) -> float:
 PRESSURE_CASES = [
     ("valve_leak", "symmetric", "elbow.a", {"leak_area_m2": 4e-8}, 100.0, 10.0),
     ("valve_leak", "asymmetric", "elbow.a", {"supply_leak_area_m2": 5e-8, "exhaust_leak_area_m2": 1e-8}, 100.0, 10.0),
+    ("valve_leak", "underlap", "elbow.a", {"underlap_area_m2": 4e-8, "underlap_width_v": 0.4}, 100.0, 10.0),
     ("external_leak", "orifice", "shoulder.b", {"leak_area_m2": 2e-8}, 100.0, 10.0),
     ("external_leak", "laminar", "shoulder.b", {"conductance_kg_s_pa": 2e-11}, 100.0, 10.0),
     ("piston_leak", "orifice", "elbow", {"leak_area_m2": 2e-8}, 100.0, 10.0),

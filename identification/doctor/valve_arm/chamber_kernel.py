@@ -9,7 +9,8 @@ reference to round-off, effect by effect.
 
 Arrays (C chambers, ordered a, b per actuator; W windows):
   p, u, travel0, travel1, out (W, C) [Pa, V, m, m, Pa];  rows (C, 8) valve columns
-  (pneumatics.valve.VALVE_COLUMNS);  supply_scale, exhaust_scale, valve_leak_m2, external_leak_m2,
+  (pneumatics.valve.VALVE_COLUMNS);  supply_scale, exhaust_scale, valve_leak_m2, underlap_m2,
+  underlap_width_v, external_leak_m2,
   external_leak_g, dead_m3, area_m2 (C,);  piston_leak_m2, piston_leak_g (C // 2,) (the *_g are the
   laminar forms' conductances [kg/(s Pa)], pneumatics.effects.external_leak.laminar_flow);  m_supply (W,) total supply flow of the last
   step [kg/s] (read for the droop, then overwritten);  glob as in :mod:`pneumatics.kernel`.
@@ -25,9 +26,10 @@ from pneumatics.kernel import GAMMA, orifice_flow_compiled
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _valve(u, row, scale_s, scale_e, leak_s, leak_e, leak_width):
+def _valve(u, row, scale_s, scale_e, leak_s, leak_e, leak_width, lap, lap_width):
     """pneumatics.valve.valve_areas for one command, scaled, plus the valve_leak hypothesis
-    (extra supply-side and exhaust-side areas near null)."""
+    (extra supply-side and exhaust-side areas near null; an underlapped spool's shifted areas,
+    pneumatics.effects.valve_leak.underlap_areas)."""
     null, half, f, width, dead, gam, a_s, a_e = row[0], row[1], row[2], row[3], row[4], row[5], row[6], row[7]
     s = min(max((u - null) / half, -1.0), 1.0)
     w = width / half
@@ -41,6 +43,10 @@ def _valve(u, row, scale_s, scale_e, leak_s, leak_e, leak_width):
         g = math.exp(-((u - null) / leak_width) ** 2)
         out_s += leak_s * g
         out_e += leak_e * g
+    if lap > 0.0:
+        x = (u - null) / lap_width
+        out_s += lap * min(1.0, max(0.0, 1.0 + x))
+        out_e += lap * min(1.0, max(0.0, 1.0 - x))
     return out_s, out_e
 
 
@@ -124,7 +130,7 @@ def _thermal(p, T, vol, vdot, a_s, a_e, ps, hA, extra, glob):
 
 @numba.njit(cache=True, error_model="numpy")
 def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2,
-               leak_width_v,
+               leak_width_v, underlap_m2, underlap_width_v,
                external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, dead_m3, area_m2, m_supply, glob,
                out, heat_w_k, T):
     """One linearly implicit ROS2 step (chamber.integrate's stages, fixed dt) for every window.
@@ -143,7 +149,7 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
         ps = glob[8] - droop * m_supply[w] if droop > 0.0 else glob[8]
         for c in range(C):
             a_s[c], a_e[c] = _valve(u[w, c], rows[c], supply_scale[c], exhaust_scale[c], valve_leak_m2[c],
-                                   valve_leak_exhaust_m2[c], leak_width_v)
+                                   valve_leak_exhaust_m2[c], leak_width_v, underlap_m2[c], underlap_width_v[c])
             vol[c] = dead_m3[c] + area_m2[c] * 0.5 * (travel0[w, c] + travel1[w, c])
             vdot[c] = area_m2[c] * (travel1[w, c] - travel0[w, c]) / dt
         _rhs(p[w], vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, ps, glob,

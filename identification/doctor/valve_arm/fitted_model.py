@@ -115,6 +115,7 @@ _MECH = {name for name, fam in FAMILIES.items() if fam.doctor == "torque_balance
 _PNEUMATIC_FORMS = {
     ("valve_leak", "symmetric"): ("leak_area_m2",),
     ("valve_leak", "asymmetric"): ("supply_leak_area_m2", "exhaust_leak_area_m2"),
+    ("valve_leak", "underlap"): ("underlap_area_m2",),
     ("external_leak", "orifice"): ("leak_area_m2",),
     ("piston_leak", "orifice"): ("leak_area_m2",),
     ("piston_leak", "laminar"): ("conductance_kg_s_pa",),

@@ -102,6 +102,11 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
             Hypothesis("valve_leak", where, "pneumatic", [("supply_leak_area_m2", 0.0, 0.0, 4e-7, 2e-8),
                                                           ("exhaust_leak_area_m2", 0.0, 0.0, 4e-7, 2e-8)], [c],
                        apply=_apply("valve_leak", robot, place, "asymmetric")),
+            # an underlapped spool (Merritt 1967 §3.6): open at null, and the land that opens stays
+            # open by the underlap, so the leak shows at every opening, not only near null; the
+            # underlap width is assumed (UNDERLAP_WIDTH_V), the area fitted
+            Hypothesis("valve_leak", where, "pneumatic", [("underlap_area_m2", 0.0, 0.0, 4e-7, 2e-8)], [c],
+                       apply=_apply("valve_leak", robot, place, "underlap")),
             Hypothesis("external_leak", where, "pneumatic", [("leak_area_m2", 0.0, 0.0, 4e-7, 1e-8)], [c],
                        apply=_apply("external_leak", robot, place, "orifice")),
             # no laminar form of the external leak here (the simulator has one): the orifice

@@ -18,7 +18,7 @@ from pneumatics.chamber import GAMMA
 from pneumatics.effects.external_leak import laminar_flow
 from pneumatics.effects.heat_transfer import thermal_step
 from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play
-from pneumatics.effects.valve_leak import WIDTH_V, leak_areas
+from pneumatics.effects.valve_leak import UNDERLAP_WIDTH_V, WIDTH_V, leak_areas, underlap_areas
 from pneumatics.kernel import pack_glob
 from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
@@ -41,6 +41,8 @@ class PneumaticMods:
     valve_leak_m2: np.ndarray = None          # extra area open both ways near null (valve_leak)
     valve_leak_exhaust_m2: np.ndarray = None  # its exhaust-side area where it differs (None: the same)
     valve_leak_width_v: float = WIDTH_V
+    valve_underlap_m2: np.ndarray = None      # an underlapped spool's area at null (valve_leak, underlap form)
+    valve_underlap_width_v: np.ndarray = None # its underlap [V] (None: UNDERLAP_WIDTH_V)
     external_leak_m2: np.ndarray = None       # orifice from the chamber to the room
     piston_leak_m2: np.ndarray = None         # (n_act,) orifice between chambers a and b
     external_leak_g: np.ndarray = None        # laminar leak to the room, conductance [kg/(s Pa)]
@@ -65,11 +67,17 @@ class PneumaticMods:
 
     def valve_leak_areas(self, u, null_v, cs=slice(None)):
         """(supply, exhaust) extra areas [m^2] of the valve_leak at commands ``u`` [V] of the
-        chambers ``cs`` whose valves' null is ``null_v``: Gaussian in u - null; (0, 0) if none."""
-        if self.valve_leak_m2 is None and self.valve_leak_exhaust_m2 is None:
-            return 0.0, 0.0
-        supply = 0.0 if self.valve_leak_m2 is None else self.valve_leak_m2[cs]
-        return leak_areas(u, null_v, supply, self.valve_leak_exhaust()[cs], self.valve_leak_width_v)
+        chambers ``cs`` whose valves' null is ``null_v``: Gaussian in u - null, plus the
+        underlapped spool's shifted areas (underlap_areas); (0, 0) if none."""
+        out_s = out_e = 0.0
+        if self.valve_leak_m2 is not None or self.valve_leak_exhaust_m2 is not None:
+            supply = 0.0 if self.valve_leak_m2 is None else self.valve_leak_m2[cs]
+            out_s, out_e = leak_areas(u, null_v, supply, self.valve_leak_exhaust()[cs], self.valve_leak_width_v)
+        if self.valve_underlap_m2 is not None:
+            width = UNDERLAP_WIDTH_V if self.valve_underlap_width_v is None else self.valve_underlap_width_v[cs]
+            lap_s, lap_e = underlap_areas(u, null_v, self.valve_underlap_m2[cs], width)
+            out_s, out_e = out_s + lap_s, out_e + lap_e
+        return out_s, out_e
 
     def external_leak_flow(self, p, room_pa: float, gas, cs=slice(None)):
         """(m, dm/dp) [kg/s, kg/(s Pa)] out of the chambers ``cs`` at pressures ``p`` through the
@@ -174,6 +182,8 @@ class ChamberModel:
         glob = pack_glob(self.gas, tab.supply_pa, tab.room_pa, FINE_DT, float(mods.supply_droop_pa_per_kg_s))
         return (np.array(tab.valve, float), per(mods.supply_scale), per(mods.exhaust_scale),
                 per(mods.valve_leak_m2), per(mods.valve_leak_exhaust()), float(mods.valve_leak_width_v),
+                per(mods.valve_underlap_m2),
+                np.full(C, UNDERLAP_WIDTH_V) if mods.valve_underlap_width_v is None else per(mods.valve_underlap_width_v),
                 per(mods.external_leak_m2), per(mods.piston_leak_m2, C // 2),
                 per(mods.external_leak_g), per(mods.piston_leak_g, C // 2), per(self.dead), per(tab.area), np.zeros(self.W), glob,
                 np.full(C, np.nan) if mods.heat_w_k is None else per(mods.heat_w_k))
@@ -190,12 +200,12 @@ class ChamberModel:
 
         Compiled (identification.doctor.valve_arm.chamber_kernel); :meth:`step_reference` is its numpy twin.
         Chambers with heat_transfer update their gas temperatures ``self.T`` (W, C) [K]."""
-        rows, ss, es, vl, vle, vw, xl, pl, xg, pg, dead, area, m_sup, glob, heat = self._kernel_args
+        rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area, m_sup, glob, heat = self._kernel_args
         out = np.empty_like(p)
         W = p.shape[0]
         T = np.ascontiguousarray(self.T[:W], float)
         step_batch(np.ascontiguousarray(p, float), np.ascontiguousarray(u, float), np.ascontiguousarray(travel0, float),
-                   np.ascontiguousarray(travel1, float), rows, ss, es, vl, vle, vw, xl, pl, xg, pg, dead, area,
+                   np.ascontiguousarray(travel1, float), rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area,
                    m_sup[:W], glob, out, heat, T)
         self.T[:W] = T
         return out
