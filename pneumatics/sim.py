@@ -36,6 +36,7 @@ from .effects.friction import friction_torque
 from .effects.heat_transfer import thermal_step
 from .effects.valve_hysteresis import play_step
 from .effects.valve_lag import lag_decay
+from .effects.valve_lag import slew_step_v
 from .effects.valve_leak import leak_areas, underlap_areas
 from . import arguments
 from .errors import ArgumentError, PneumasimError
@@ -109,8 +110,11 @@ class Simulation:
             supply_droop_pa_per_kg_s=self.effects.supply_droop_pa_per_kg_s,
             dead_volume=robot.tables.dead_volume + line_volume)
         self._lag = self.effects.chamber_array(robot, "valve_lag_s")
+        # valve_lag (slew_limit): the most the spool moves in one physics step [V] (inf: no limit)
+        self._slew_step = slew_step_v(self.effects.chamber_array(robot, "valve_slew_s"), self.model.opt.timestep)
         # valve_lag / line_dynamics move the spool between commands: step one physics step at a time
-        self._valve_dynamics = bool(np.any(self._lag > 0) or np.any(self._line_delay > 0))
+        self._valve_dynamics = bool(np.any(self._lag > 0) or np.any(self._line_delay > 0)
+                                    or np.any(np.isfinite(self._slew_step)))
         # exact first-order decay over half a physics step (0 where the valve has no lag)
         self._lag_decay_half = lag_decay(self._lag, 0.5 * self.model.opt.timestep)
         self._valve_leak = self.effects.chamber_array(robot, "valve_leak_m2")
@@ -265,7 +269,8 @@ class Simulation:
     def _advance_spool(self):
         """valve_lag and line_dynamics over the coming physics step: the spool target delayed by
         each chamber's line delay (a transport delay of the flow, modelled on the valve side, as in
-        Richer & Hurmuzlu 2000's line model), then the exact first-order lag, evaluated at mid-step."""
+        Richer & Hurmuzlu 2000's line model), then the exact first-order lag, evaluated at
+        mid-step, its step bounded by the slew limit."""
         t, dt = self.time, self.dt
         hist = self._spool_history
         while len(hist) > 1 and hist[1][0] + self._line_delay.max() <= t - dt:
@@ -275,8 +280,11 @@ class Simulation:
             due = t_set + self._line_delay <= t + 1e-9
             target[due] = u[due]
         x = self.spool_position
-        mid = target + (x - target) * self._lag_decay_half
-        x[:] = target + (x - target) * self._lag_decay_half ** 2
+        lagged = target + (x - target) * self._lag_decay_half ** 2
+        # the slew limit bounds the step the lag asks for (a solenoid's force bounds the speed)
+        step = np.clip(lagged - x, -self._slew_step, self._slew_step)
+        mid = x + 0.5 * step if np.isfinite(self._slew_step).any() else target + (x - target) * self._lag_decay_half
+        x[:] = x + step
         self._update_areas(mid)
 
     def _update_areas(self, spool=None):

@@ -7,7 +7,9 @@ import pytest
 
 from pneumatics.effects.effect_set import EffectSet
 from pneumatics.effects.friction import friction_torque
-from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play
+from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play, slew_limited, slew_limited_reference
+from pneumatics.effects.valve_lag import COMMAND_SPAN_V
+from pneumatics.sim import COMMAND_RANGE_V
 from pneumatics.robot import load_robot
 from pneumatics.sim import Simulation
 
@@ -127,6 +129,32 @@ def test_lag_and_delay_are_what_they_claim():
     assert abs(y[10 + 20] - (1 - np.exp(-21 / 20))) < 0.02
     d = dead_time(u, 0.005, 1e-3)
     assert d[14] == 0.0 and d[15] == 1.0
+
+
+def test_a_slew_limit_takes_a_large_step_in_fixed_time_and_passes_small_changes():
+    u = np.r_[np.full(10, 5.0), np.full(200, 9.0), np.full(100, 9.05)]
+    y = slew_limited(u, 0.05)                           # 50 V/s at 1 ms steps
+    assert y[10 + 78] < 9.0 - 0.04 and y[10 + 79] == pytest.approx(9.0, abs=1e-12)  # 4 V at 0.05 V a step
+    assert y[210] == pytest.approx(9.05, abs=1e-12)     # a 0.05 V change passes at once
+    rng = np.random.default_rng(3)
+    w = rng.uniform(0, 10, 500)
+    np.testing.assert_array_equal(slew_limited(w, 0.3), slew_limited_reference(w, 0.3))
+    assert np.all(np.abs(np.diff(slew_limited(w, 0.3))) <= 0.3 + 1e-12)
+
+
+def test_the_slew_limits_span_is_the_simulators_command_range():
+    assert COMMAND_SPAN_V == COMMAND_RANGE_V[1] - COMMAND_RANGE_V[0]
+
+
+def test_valve_slew_limit_in_the_simulator_bounds_the_spools_speed():
+    sim = Simulation(load_robot("arm2"), effects=EffectSet(valve_slew_s={"elbow.b": 0.1}))  # 100 V/s
+    dt = sim.model.opt.timestep
+    sim.set_command([5.0, 5.0, 5.0, 9.0])
+    sim.step(10)
+    assert abs(sim.spool_position[3] - (5.0 + 100.0 * 10 * dt)) < 1e-9
+    assert np.all(sim.spool_position[:3] == 5.0)
+    sim.step(100)
+    assert sim.spool_position[3] == 9.0
 
 
 def test_valve_hysteresis_in_the_simulator_delays_the_spool():

@@ -55,6 +55,9 @@ class EffectSet:
     """supply pressure drop per kg/s of the total flow the valves draw (supply_droop)"""
     valve_lag_s: dict = field(default_factory=dict)
     """chamber -> time constant of the spool's first-order lag behind its command [s] (valve_lag)"""
+    valve_slew_s: dict = field(default_factory=dict)
+    """chamber -> least time the spool takes to cross the whole command range [s] (valve_lag,
+    slew_limit form): its speed is bounded by COMMAND_SPAN_V / that time"""
     line_dynamics: dict = field(default_factory=dict)
     """chamber -> {"delay_s": transport delay of the tube between valve and chamber [s],
     "volume_m3": the tube's volume, added to the chamber's dead volume [m^3]} (line_dynamics)"""
@@ -181,5 +184,5 @@ class EffectSet:
         return not any((self.friction, self.valve_leak_m2, self.valve_leak_exhaust_m2, self.valve_underlap, self.external_leak_m2, self.piston_leak_m2,
                         self.external_leak_laminar_kg_s_pa, self.piston_leak_laminar_kg_s_pa,
                         self.valve_hysteresis_v, self.pressure_offset_pa, self.angle_offset_rad,
-                        self.supply_droop_pa_per_kg_s, self.valve_lag_s, self.line_dynamics, self.end_stop,
+                        self.supply_droop_pa_per_kg_s, self.valve_lag_s, self.valve_slew_s, self.line_dynamics, self.end_stop,
                         self.heat_transfer, self.backlash))

@@ -74,6 +74,9 @@ PRESSURE_CASES = [
     # a dead time runs on the line's delay mechanism, without its volume (and rings the loop
     # like the line's delay)
     ("valve_lag", "dead_time", "elbow.a", {"dead_time_s": 0.02}, 200.0, 10.0),
+    # the slewing spool leads by the same half step as the lag's (the generator's 50-150 V/s
+    # rate limits are full-stroke times of 0.07-0.2 s)
+    ("valve_lag", "slew_limit", "elbow.b", {"full_stroke_time_s": 0.4}, 400.0, 8.0),
     # the delayed spool rings the loop likewise (~130 Pa on both elbow chambers)
     ("line_dynamics", "delay_volume", "elbow.a", {"delay_s": 0.02, "volume_m3": 2e-6}, 200.0, 10.0),
     ("heat_transfer", "newton", "shoulder.a", {"conductance_w_k": 0.1}, 100.0, 10.0),

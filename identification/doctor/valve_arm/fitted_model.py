@@ -122,6 +122,7 @@ _PNEUMATIC_FORMS = {
     ("valve_hysteresis", "play"): ("half_width_v",),
     ("valve_lag", "first_order"): ("time_constant_s",),
     ("valve_lag", "dead_time"): ("dead_time_s",),   # no hypothesis of its own: naming.line_named
+    ("valve_lag", "slew_limit"): ("full_stroke_time_s",),
     ("line_dynamics", "delay_volume"): ("delay_s",),
     ("heat_transfer", "newton"): ("conductance_w_k",),
     ("pressure_sensor_offset", "additive"): ("offset_pa",),

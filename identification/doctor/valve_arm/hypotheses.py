@@ -118,6 +118,9 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
                        apply=_apply("valve_hysteresis", robot, place)),
             Hypothesis("valve_lag", where, "pneumatic", [("time_constant_s", 0.0, 0.0, 0.15, 0.004)], [c],
                        apply=_apply("valve_lag", robot, place)),
+            # a slew limit: large command steps take the spool a fixed time, small ones none
+            Hypothesis("valve_lag", where, "pneumatic", [("full_stroke_time_s", 0.0, 0.0, 0.5, 0.02)], [c],
+                       apply=_apply("valve_lag", robot, place, "slew_limit")),
             Hypothesis("line_dynamics", where, "pneumatic", [("delay_s", 0.0, 0.0, 0.15, 0.004)], [c],
                        adds_volume=float(robot.tables.dead_volume[c]),
                        apply=_apply("line_dynamics", robot, place)),

@@ -17,7 +17,8 @@ import numpy as np
 from pneumatics.chamber import GAMMA
 from pneumatics.effects.external_leak import laminar_flow
 from pneumatics.effects.heat_transfer import thermal_step
-from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play
+from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play, slew_limited
+from pneumatics.effects.valve_lag import slew_step_v
 from pneumatics.effects.valve_leak import UNDERLAP_WIDTH_V, WIDTH_V, leak_areas, underlap_areas
 from pneumatics.kernel import pack_glob
 from pneumatics.medium import orifice_flow
@@ -49,6 +50,7 @@ class PneumaticMods:
     piston_leak_g: np.ndarray = None          # (n_act,) laminar leak between a and b [kg/(s Pa)]
     hysteresis_v: np.ndarray = None           # play half-width on each valve's command
     lag_s: np.ndarray = None                  # first-order valve lag
+    stroke_time_s: np.ndarray = None          # the spool's least full-stroke time (valve_lag, slew_limit)
     delay_s: np.ndarray = None                # command dead time
     extra_volume_m3: np.ndarray = None        # line volume added to the dead volume
     sensor_offset_pa: np.ndarray = None       # measured = true + offset
@@ -133,7 +135,7 @@ class Windows:
 
 
 def effective_commands(exp: Experiment, mods: PneumaticMods) -> np.ndarray:
-    """(F, C) commands on the 1 ms grid after hysteresis, lag and dead time."""
+    """(F, C) commands on the 1 ms grid after hysteresis, lag, slew limit and dead time."""
     u = exp.u.copy()
     if mods.hysteresis_v is not None:
         for c in np.nonzero(mods.hysteresis_v > 0)[0]:
@@ -144,6 +146,9 @@ def effective_commands(exp: Experiment, mods: PneumaticMods) -> np.ndarray:
     if mods.lag_s is not None:
         for c in np.nonzero(mods.lag_s > 0)[0]:
             fine[:, c] = first_order_lag(fine[:, c], mods.lag_s[c], FINE_DT)
+    if mods.stroke_time_s is not None:
+        for c in np.nonzero(mods.stroke_time_s > 0)[0]:
+            fine[:, c] = slew_limited(fine[:, c], float(slew_step_v(mods.stroke_time_s[c], FINE_DT)))
     if mods.delay_s is not None:
         for c in np.nonzero(mods.delay_s > 0)[0]:
             fine[:, c] = dead_time(fine[:, c], mods.delay_s[c], FINE_DT)
