@@ -35,8 +35,7 @@ from .effects.effect_set import EffectSet
 from .effects.friction import friction_torque
 from .effects.heat_transfer import thermal_step
 from .effects.valve_hysteresis import play_step
-from .effects.valve_lag import lag_decay
-from .effects.valve_lag import slew_step_v
+from .effects.valve_lag import lag_decay, slew_step_v
 from .effects.valve_leak import leak_areas, underlap_areas
 from . import arguments
 from .errors import ArgumentError, PneumasimError
@@ -112,9 +111,9 @@ class Simulation:
         self._lag = self.effects.chamber_array(robot, "valve_lag_s")
         # valve_lag (slew_limit): the most the spool moves in one physics step [V] (inf: no limit)
         self._slew_step = slew_step_v(self.effects.chamber_array(robot, "valve_slew_s"), self.model.opt.timestep)
+        self._slewing = bool(np.isfinite(self._slew_step).any())
         # valve_lag / line_dynamics move the spool between commands: step one physics step at a time
-        self._valve_dynamics = bool(np.any(self._lag > 0) or np.any(self._line_delay > 0)
-                                    or np.any(np.isfinite(self._slew_step)))
+        self._valve_dynamics = bool(np.any(self._lag > 0) or np.any(self._line_delay > 0) or self._slewing)
         # exact first-order decay over half a physics step (0 where the valve has no lag)
         self._lag_decay_half = lag_decay(self._lag, 0.5 * self.model.opt.timestep)
         self._valve_leak = self.effects.chamber_array(robot, "valve_leak_m2")
@@ -280,11 +279,13 @@ class Simulation:
             due = t_set + self._line_delay <= t + 1e-9
             target[due] = u[due]
         x = self.spool_position
-        lagged = target + (x - target) * self._lag_decay_half ** 2
-        # the slew limit bounds the step the lag asks for (a solenoid's force bounds the speed)
-        step = np.clip(lagged - x, -self._slew_step, self._slew_step)
-        mid = x + 0.5 * step if np.isfinite(self._slew_step).any() else target + (x - target) * self._lag_decay_half
-        x[:] = x + step
+        if self._slewing:  # the slew limit bounds the step the lag asks for (a solenoid's force bounds the speed)
+            step = np.clip(target + (x - target) * self._lag_decay_half ** 2 - x, -self._slew_step, self._slew_step)
+            mid = x + 0.5 * step
+            x += step
+        else:
+            mid = target + (x - target) * self._lag_decay_half
+            x[:] = target + (x - target) * self._lag_decay_half ** 2
         self._update_areas(mid)
 
     def _update_areas(self, spool=None):

@@ -120,27 +120,25 @@ class EffectSet:
     def joint_array(self, robot, attr: str) -> np.ndarray:
         return self._array(attr, "joint", robot.joint_names)
 
-    def line_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
-        """(delay_s, volume_m3), each (n_ch,), of the line_dynamics effects."""
+    def _chamber_fields(self, robot, attr: str, defaults: dict) -> tuple[np.ndarray, ...]:
+        """One (n_ch,) array per key of ``defaults`` from the per-chamber dicts of ``attr``:
+        each chamber's value, the default where the chamber or the key is absent."""
         names = [f"{a}.{c}" for a, c in robot.chamber_names]
-        delay, volume = np.zeros(len(names)), np.zeros(len(names))
-        for key, v in self.line_dynamics.items():
+        out = {k: np.full(len(names), d, float) for k, d in defaults.items()}
+        for key, v in getattr(self, attr).items():
             if key not in names:
                 raise UnknownNameError("chamber", key, names)
-            delay[names.index(key)] = v.get("delay_s", 0.0)
-            volume[names.index(key)] = v.get("volume_m3", 0.0)
-        return delay, volume
+            for k, d in defaults.items():
+                out[k][names.index(key)] = v.get(k, d)
+        return tuple(out.values())
+
+    def line_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
+        """(delay_s, volume_m3), each (n_ch,), of the line_dynamics effects."""
+        return self._chamber_fields(robot, "line_dynamics", {"delay_s": 0.0, "volume_m3": 0.0})
 
     def underlap_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
         """(area_m2, width_v), each (n_ch,), of the underlapped valves (area 0 elsewhere)."""
-        names = [f"{a}.{c}" for a, c in robot.chamber_names]
-        area, width = np.zeros(len(names)), np.full(len(names), UNDERLAP_WIDTH_V)
-        for key, v in self.valve_underlap.items():
-            if key not in names:
-                raise UnknownNameError("chamber", key, names)
-            area[names.index(key)] = v.get("area_m2", 0.0)
-            width[names.index(key)] = v.get("width_v", UNDERLAP_WIDTH_V)
-        return area, width
+        return self._chamber_fields(robot, "valve_underlap", {"area_m2": 0.0, "width_v": UNDERLAP_WIDTH_V})
 
     def heat_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
         """(thermal mask (n_ch,) bool, conductance [W/K] (n_ch,)) of the heat_transfer effects."""
