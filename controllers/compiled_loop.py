@@ -183,13 +183,13 @@ def run_rows(k0, k1, n_rows, n_sub, t0, rate_hz, average, noisy, noise, angle_sd
 
     ``noisy``: add ``noise`` (k1 - k0, n_joint + n_ch), standard normals of these rows (the
     joints' before the chambers'), times ``angle_sd`` [rad] and ``pressure_sd`` [Pa];
-    ``sensors``: (qadr, dadr, q_offset, p_offset) of Simulation.sensor_maps;
+    ``sensors``: (qadr, dadr, q_offset, p_offset, p_drift, p_drift_tau) of Simulation.sensor_maps;
     ``step_args``: Simulation.physics_step_args; ``command_args``: Simulation.command_step_args.
     Returns (rows done, status): k1 and OK or CLIPPED, or the row whose commands
     command_step refused (NOT_FINITE, UNIT_SLIP; the commands left in ``rec_u`` of that row)
     with the simulation unchanged by them.
     """
-    qadr, dadr, q_off, p_off = sensors
+    qadr, dadr, q_off, p_off, p_drift, p_tau = sensors
     pressure, act, glob, qpos, qvel, sums = (step_args[3], step_args[8], step_args[10], step_args[11],
                                              step_args[12], step_args[13])
     n_j, n_ch, nq = qadr.size, pressure.size, qpos.size
@@ -197,9 +197,11 @@ def run_rows(k0, k1, n_rows, n_sub, t0, rate_hz, average, noisy, noise, angle_sd
     ref, ff, u = np.empty(n_j), np.empty(n_j), np.empty(n_ch)
     status = OK
     pending = False  # the last period's pressures wait for this period's mj_step1 (period_start)
+    drifting = np.any(p_drift != 0.0)
     for k in range(k0, k1):
         if pending:
             period_start(*step_args)
+        t = t0 + k / rate_hz
         if average and k > 0:  # Simulation.take_mean: the sums hold this period's n_sub steps
             for j in range(n_j):
                 q_seen[j] = sums[n_ch + qadr[j]] / n_sub + q_off[j]
@@ -213,12 +215,15 @@ def run_rows(k0, k1, n_rows, n_sub, t0, rate_hz, average, noisy, noise, angle_sd
                 qd[j] = qvel[dadr[j]]
             for i in range(n_ch):
                 p_seen[i] = pressure[i] + p_off[i]
+        if drifting:  # a warming-up pressure sensor (effects.pressure_sensor_offset.offset_at)
+            for i in range(n_ch):
+                if p_tau[i] > 0.0:
+                    p_seen[i] = p_seen[i] + p_drift[i] * -np.expm1(-t / p_tau[i])
         if noisy:  # runner.add_noise: rng.normal(0, sd) is 0 + sd * z
             for j in range(n_j):
                 q_seen[j] = q_seen[j] + (0.0 + angle_sd * noise[k - k0, j])
             for i in range(n_ch):
                 p_seen[i] = p_seen[i] + (0.0 + pressure_sd * noise[k - k0, n_j + i])
-        t = t0 + k / rate_hz
         pidf_command(t, q_seen, p_seen, law, state, started, ref, ff, u)
         s = command_step(u, *command_args)
         if s != OK and s != CLIPPED:

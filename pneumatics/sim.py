@@ -32,6 +32,7 @@ from .chamber import (
 )
 from .effects.backlash import addresses, backlash_model, drive_pairs
 from .effects.effect_set import EffectSet
+from .effects.pressure_sensor_offset import offset_at
 from .effects.friction import friction_torque
 from .effects.heat_transfer import thermal_step
 from .effects.valve_hysteresis import play_step
@@ -126,6 +127,7 @@ class Simulation:
         self._numpy_command = bool(self._underlap_m2.any())
         self._hysteresis = self.effects.chamber_array(robot, "valve_hysteresis_v")
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
+        self._p_drift, self._p_drift_tau = self.effects.drift_arrays(robot)
         self._q_offset = self.effects.joint_array(robot, "angle_offset_rad")
         self._fric = self.effects.friction_table(robot, self.model)
         # heat_transfer: those chambers carry a gas temperature [K] and step in Python
@@ -202,10 +204,17 @@ class Simulation:
     def dt(self) -> float:
         return float(self.model.opt.timestep)
 
+    def pressure_offset_now(self) -> np.ndarray:
+        """(n_ch,) what the pressure sensors add to the true pressures now [Pa]: the offsets,
+        with a warming-up sensor's drift at the simulation's time (pressure_sensor_offset)."""
+        if not self._p_drift.any():
+            return self._p_offset
+        return offset_at(self.time, self._p_offset, self._p_drift, self._p_drift_tau)
+
     def observe(self) -> Observation:
         """Noise-free, instantaneous sensor values now (with any sensor-offset effects)."""
         return Observation(self.time, self.data.qpos[self._qadr] + self._q_offset,
-                           self.data.qvel[self._dadr].copy(), self.pressure + self._p_offset)
+                           self.data.qvel[self._dadr].copy(), self.pressure + self.pressure_offset_now())
 
     def forces(self) -> np.ndarray:
         """(n_act,) actuator forces [N] (torques [N m] for vanes) from the current pressures."""
@@ -389,8 +398,9 @@ class Simulation:
 
     def sensor_maps(self) -> tuple:
         """(qpos addresses (n_joint,), qvel addresses (n_joint,), angle offsets (n_joint,) [rad],
-        pressure offsets (n_ch,) [Pa]): how :meth:`observe` and :meth:`take_mean` read the state."""
-        return self._qadr, self._dadr, self._q_offset, self._p_offset
+        pressure offsets (n_ch,) [Pa], their warm-up drifts (n_ch,) [Pa] and time constants
+        (n_ch,) [s], 0 without): how :meth:`observe` and :meth:`take_mean` read the state."""
+        return self._qadr, self._dadr, self._q_offset, self._p_offset, self._p_drift, self._p_drift_tau
 
     def sync(self):
         """Actuator lengths at the current MuJoCo state; integrate the pressures up to it."""
@@ -462,4 +472,4 @@ class Simulation:
         self.sums[:] = 0.0
         self.steps_summed = 0
         return Observation(self.time, mean[n_ch:n_ch + nq][self._qadr] + self._q_offset,
-                           mean[n_ch + nq:][self._dadr], mean[:n_ch] + self._p_offset)
+                           mean[n_ch + nq:][self._dadr], mean[:n_ch] + self.pressure_offset_now())

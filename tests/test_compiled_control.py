@@ -98,6 +98,18 @@ def test_model_based_pidf_without_averaging_with_sensor_offsets_and_hysteresis(r
     assert pair[0][1]["n_summed"] == round(SECONDS * 100) * 10  # the sums ran on, as the Python loop's do
 
 
+def test_a_warming_up_pressure_sensor_reads_alike_on_both_paths(robots):
+    """The drift is evaluated at the simulation's time on the Python path and at the row's time
+    t0 + k / rate in the compiled loop: equal up to the clock's rounding, so the recordings
+    agree to round-off (not bit for bit)."""
+    robot = robots["arm2"]
+    effects = EffectSet(pressure_offset_pa={"elbow.b": 2000.0},
+                        pressure_drift={"elbow.b": {"drift_pa": 1.2e4, "time_constant_s": 1.0}})
+    (a, _), (b, _) = _both(Simulation(robot, effects=effects), lambda: _controller(robot, "pidf"), average=True)
+    for col in a.columns:
+        np.testing.assert_allclose(a[col], b[col], rtol=1e-9, atol=1e-6, err_msg=col)
+
+
 def test_a_run_continues_where_the_last_left_off(robots):
     """Two runs back to back (state carried in the simulation) and a run at another rate."""
     robot = robots["arm2"]

@@ -4,8 +4,11 @@ import dataclasses
 import mujoco
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pneumatics.effects.effect_set import EffectSet
+from pneumatics.effects.pressure_sensor_offset import offset_at
 from pneumatics.effects.friction import friction_torque
 from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play, slew_limited, slew_limited_reference
 from pneumatics.effects.valve_lag import COMMAND_SPAN_V
@@ -172,6 +175,35 @@ def test_sensor_offsets_show_in_observations_only():
     sim.reset(pressure_pa=4e5)
     obs = sim.observe()
     assert obs.p[2] == 4e5 + 5000.0 and obs.q[0] == 0.01 and sim.pressure[2] == 4e5
+
+
+def test_a_warming_up_pressure_sensor_drifts_by_the_simulation_clock():
+    """pressure_sensor_offset, warm_up_drift: the reading's offset is offset + drift
+    (1 - exp(-t / tau)), t the simulation's time; the physics never sees it."""
+    robot = load_robot("arm2")
+    effects = EffectSet().add("pressure_sensor_offset", "elbow.a",
+                              {"offset_pa": 2000.0, "drift_pa": 9000.0, "time_constant_s": 0.5}, form="warm_up_drift")
+    sim = Simulation(robot, effects=effects)
+    sim.reset(pressure_pa=4e5)
+    assert sim.observe().p[2] - sim.pressure[2] == pytest.approx(2000.0)
+    sim.set_command([5, 5, 5, 5])
+    sim.step(1000)
+    obs = sim.observe()
+    assert obs.p[2] - sim.pressure[2] == pytest.approx(2000.0 + 9000.0 * (1 - np.exp(-sim.time / 0.5)), rel=1e-9)
+    assert np.allclose(obs.p[[0, 1, 3]], sim.pressure[[0, 1, 3]])
+
+
+@settings(max_examples=60, deadline=None)
+@given(offset=st.floats(-3e4, 3e4), drift=st.floats(-3e4, 3e4), tau=st.floats(0.1, 1e3),
+       t=st.floats(0.0, 1e4))
+def test_a_warm_up_drift_settles_monotonically_from_offset_to_offset_plus_drift(offset, drift, tau, t):
+    at = offset_at(t, offset, drift, tau)
+    later = offset_at(t + 1.0, offset, drift, tau)
+    lo, hi = min(offset, offset + drift), max(offset, offset + drift)
+    assert lo - 1e-9 <= at <= hi + 1e-9
+    assert (later - at) * drift >= -1e-9          # moves toward the settled value, never back
+    assert offset_at(0.0, offset, drift, tau) == offset
+    assert offset_at(t, offset, drift, 0.0) == offset  # no time constant: no drift
 
 
 def _run(effects, steps=300, kernel="fast"):

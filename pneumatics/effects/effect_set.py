@@ -49,6 +49,10 @@ class EffectSet:
     """chamber -> half-width of the play between command and spool [V] (valve_hysteresis)"""
     pressure_offset_pa: dict = field(default_factory=dict)
     """chamber -> sensor reads true + offset [Pa] (pressure_sensor_offset)"""
+    pressure_drift: dict = field(default_factory=dict)
+    """chamber -> {"drift_pa": the offset's change while the sensor warms up [Pa],
+    "time_constant_s": its time constant [s]}: the reading's offset is offset + drift
+    (1 - exp(-t / tau)), t the simulation's time (pressure_sensor_offset, warm_up_drift form)"""
     angle_offset_rad: dict = field(default_factory=dict)
     """joint -> sensor reads true + offset [rad] (angle_sensor_offset)"""
     supply_droop_pa_per_kg_s: float = 0.0
@@ -140,6 +144,11 @@ class EffectSet:
         """(area_m2, width_v), each (n_ch,), of the underlapped valves (area 0 elsewhere)."""
         return self._chamber_fields(robot, "valve_underlap", {"area_m2": 0.0, "width_v": UNDERLAP_WIDTH_V})
 
+    def drift_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
+        """(drift_pa, time_constant_s), each (n_ch,), of the warming-up pressure sensors
+        (time constant 0, no drift, elsewhere)."""
+        return self._chamber_fields(robot, "pressure_drift", {"drift_pa": 0.0, "time_constant_s": 0.0})
+
     def heat_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
         """(thermal mask (n_ch,) bool, conductance [W/K] (n_ch,)) of the heat_transfer effects."""
         names = [f"{a}.{c}" for a, c in robot.chamber_names]
@@ -181,6 +190,6 @@ class EffectSet:
     def empty(self) -> bool:
         return not any((self.friction, self.valve_leak_m2, self.valve_leak_exhaust_m2, self.valve_underlap, self.external_leak_m2, self.piston_leak_m2,
                         self.external_leak_laminar_kg_s_pa, self.piston_leak_laminar_kg_s_pa,
-                        self.valve_hysteresis_v, self.pressure_offset_pa, self.angle_offset_rad,
+                        self.valve_hysteresis_v, self.pressure_offset_pa, self.pressure_drift, self.angle_offset_rad,
                         self.supply_droop_pa_per_kg_s, self.valve_lag_s, self.valve_slew_s, self.line_dynamics, self.end_stop,
                         self.heat_transfer, self.backlash))
