@@ -62,7 +62,9 @@ def test_effect_fits_at_one_joint_equal_the_whole_fit():
         assert np.allclose(whole.values, local.values, rtol=0, atol=1e-9), h.label
         assert abs(whole.rss - local.rss) <= 1e-9 * whole.rss
         k = len(h.params)
-        assert np.allclose(whole.stderr[-k:], local.stderr[-k:], rtol=1e-9), h.label
+        # 1e-7: a warm-up drift of 3 s is nearly collinear with the constant offset beside it
+        # (1 - exp(-t/3) is 1 after the first seconds), which costs the errors two digits
+        assert np.allclose(whole.stderr[-k:], local.stderr[-k:], rtol=1e-7), h.label
         # the two-fold cross-validation with shared folds, against the whole fits fold by fold
         s, block = Scored(h, 0.0), 10
         crossval_torque(s, exp, td, None, block, {})

@@ -61,6 +61,9 @@ CASES = [
      "heat_transfer", "elbow.b", {"conductance_w_k": 0.2}),
     (effect("pressure_sensor_offset", "additive", {"actuator": "shoulder", "chamber": "a"}, offset_pa=3000.0),
      "pressure_offset_pa", "shoulder.a", 3000.0),
+    (effect("pressure_sensor_offset", "warm_up_drift", {"actuator": "elbow", "chamber": "b"}, offset_pa=1000.0,
+            drift_pa=-6000.0, time_constant_s=25.0),
+     "pressure_drift", "elbow.b", {"drift_pa": -6000.0, "time_constant_s": 25.0}),
     # the torque balance's offset names the actuator; the doctor carries it on chamber a
     (effect("pressure_sensor_offset", "additive", {"actuator": "elbow"}, offset_pa=-2000.0, offset_pa_if_chamber_b=2500.0),
      "pressure_offset_pa", "elbow.a", -2000.0),
@@ -132,6 +135,9 @@ def test_the_simulator_and_the_doctors_replay_get_the_same_pneumatic_value(arm2,
                                                        else pm.extra_volume_m3])),
              "heat_transfer": lambda: (eff.heat_arrays(arm2)[1][chambers.index(key)], pm.heat_w_k[chambers.index(key)]),
              "pressure_offset_pa": lambda: (eff.chamber_array(arm2, "pressure_offset_pa"), pm.sensor_offset_pa),
+             "pressure_drift": lambda: (np.concatenate([eff.chamber_array(arm2, "pressure_offset_pa"),
+                                                        *eff.drift_arrays(arm2)]),
+                                        np.concatenate([pm.sensor_offset_pa, pm.sensor_drift_pa, pm.sensor_drift_tau_s])),
              "supply_droop_pa_per_kg_s": lambda: (eff.supply_droop_pa_per_kg_s, pm.supply_droop_pa_per_kg_s),
              "backlash": lambda: ([eff.backlash["elbow"]["gap_rad"]], [pm.backlash_rad[1]])}
     sim_value, replay_value = pairs[attr]()

@@ -81,6 +81,9 @@ PRESSURE_CASES = [
     ("line_dynamics", "delay_volume", "elbow.a", {"delay_s": 0.02, "volume_m3": 2e-6}, 200.0, 10.0),
     ("heat_transfer", "newton", "shoulder.a", {"conductance_w_k": 0.1}, 100.0, 10.0),
     ("pressure_sensor_offset", "additive", "elbow.b", {"offset_pa": 1.5e4}, 100.0, 10.0),
+    # a sensor warming up: the reading's offset settles from 3 to 18 kPa within the recording
+    ("pressure_sensor_offset", "warm_up_drift", "elbow.b", {"offset_pa": 3e3, "drift_pa": 1.5e4, "time_constant_s": 1.0},
+     100.0, 10.0),
     # the simulator draws the droop from the flows at the nominal supply pressure and the
     # end-of-step chamber pressures, the doctor from the drooped supply and the start-of-step
     # ones: 0.1-0.9 kPa where the valves draw hard (supply_droop.py)
@@ -173,3 +176,23 @@ def test_every_registered_family_has_a_round_trip_or_says_why_not():
         assert (name in tested) != bool(fam.roundtrip_gap), name
         if name in tested:
             assert "valve_arm" in fam.plants and fam.doctor, name
+
+
+def test_the_torque_balance_sees_a_warming_up_pressure_sensor_as_a_settling_force_error(arm2):
+    """pressure_sensor_offset, warm_up_drift: the measured pressure carries offset + drift
+    (1 - exp(-t / tau)), so the torque balance's equation error carries that times the
+    chamber's d tau / d p, which the doctor's drift hypothesis regresses on
+    (hypotheses._drift_regs)."""
+    from identification.doctor.valve_arm.hypotheses import _drift_regs
+
+    fam = get_family("pressure_sensor_offset")
+    params = fam.params({"offset_pa": 3e3, "drift_pa": 1.5e4, "time_constant_s": 1.0}, "warm_up_drift")
+    exp = record(arm2, "pressure_sensor_offset", "elbow.b", params)
+    td = torque_data(exp)
+    c = [f"{a}.{ch}" for a, ch in arm2.chamber_names].index("elbow.b")
+    term = _drift_regs(exp, td, c, 1.0) @ np.array([3e3, 1.5e4])
+    j = arm2.joint_names.index("elbow")
+    with_effect, without = torque_error_nm(td, j, term), torque_error_nm(td, j)
+    print(f"warm-up drift: {with_effect:.4f} N m with, {without:.4f} without")
+    assert with_effect < 0.01
+    assert without > 5.0 * with_effect

@@ -50,6 +50,13 @@ class Experiment:
     fine_q: np.ndarray = field(default=None)       # (F, J)
     breaks: tuple = ()                              # sample indices where a pooled recording starts
     q_cutoff_hz: float = np.inf                     # the angle splines' half-amplitude frequency (lowest joint)
+    clock: np.ndarray = field(default=None)         # (N,) each sample's time on its own recording's clock [s]
+
+    def clock_at(self, fine: bool = False) -> np.ndarray:
+        """Recording time [s] of each sample (fine: of each 1 ms grid point): the clock a
+        warming-up pressure sensor drifts by (pressure_sensor_offset, warm_up_drift form)."""
+        clock = self.t if self.clock is None else self.clock
+        return np.interp(self.fine_t, self.t, clock) if fine else clock
 
     @property
     def rate_hz(self) -> float:
@@ -171,7 +178,7 @@ def pool(exps: list[Experiment]) -> Experiment:
                              + ", ".join(f"{e.rec.source}: {r:.4g} Hz" for e, r in zip(exps, rates)))
     dt = 1.0 / rates[0]
     n_sub = exps[0].n_sub
-    parts = {k: [] for k in ("t", "t_sensor", "q", "q_s", "qd", "qdd", "p", "u", "p_at_t", "fine_q", "fine_length")}
+    parts = {k: [] for k in ("t", "clock", "t_sensor", "q", "q_s", "qd", "qdd", "p", "u", "p_at_t", "fine_q", "fine_length")}
     breaks, n, t_next = [], 0, exps[0].t[0]
     for k, e in enumerate(exps):
         shift = t_next - e.t[0]
@@ -181,6 +188,7 @@ def pool(exps: list[Experiment]) -> Experiment:
             parts["fine_q"].append(np.repeat(e.fine_q[:1], n_sub - 1, axis=0))
             parts["fine_length"].append(np.repeat(e.fine_length[:1], n_sub - 1, axis=0))
         parts["t"].append(e.t + shift)
+        parts["clock"].append(e.clock_at())
         parts["t_sensor"].append(e.t_sensor + shift)
         for key in ("q", "q_s", "qd", "qdd", "p", "u", "p_at_t", "fine_q", "fine_length"):
             parts[key].append(getattr(e, key))
@@ -191,7 +199,7 @@ def pool(exps: list[Experiment]) -> Experiment:
     out = Experiment(first.robot, first.rec, cat["t"], cat["t_sensor"], cat["q"], cat["q_s"], cat["qd"], cat["qdd"],
                      cat["p"], cat["u"], first.averaged, cat["p_at_t"],
                      cat["t"][0] + np.arange(cat["fine_q"].shape[0]) * FINE_DT, cat["fine_length"], cat["fine_q"],
-                     tuple(breaks), min(e.q_cutoff_hz for e in exps))
+                     tuple(breaks), min(e.q_cutoff_hz for e in exps), cat["clock"])
     expected = int(round((out.t[-1] - out.t[0]) / FINE_DT)) + 1
     if out.fine_t.size != expected:  # each recording's grid must span whole milliseconds
         raise RecordingError(f"pooling: fine grid of {out.fine_t.size} points, expected {expected}")

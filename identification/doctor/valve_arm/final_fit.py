@@ -8,7 +8,7 @@ from .calibrate import chamber_names as calibration_names
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
 from .rules import MIN_T, DoctorRun
 from .screening import stack_terms
-from .search import apply_offset, corrected, mech_attr
+from .search import apply_offset, corrected, mech_attr, offset_of_term
 
 
 def final_joint_fit(run: DoctorRun) -> None:
@@ -24,13 +24,18 @@ def final_joint_fit(run: DoctorRun) -> None:
         n = len(run.final_rfit.values)
         run.finals = final_terms(run.kept_mech, run.refine, run.final_rfit.values[n - n_terms:],
                                  run.final_rfit.stderr[n - n_terms:], replay_offset)
-        failing = [h for h, vals, ses in run.finals if not passes_keep_rule(vals, ses)]
+        failing = [h for h, vals, ses in run.finals
+                   if not passes_keep_rule(vals[h.keep_mask()], ses[h.keep_mask()])]
         if not failing:
             break
         _withdraw_failing(run, failing, replay_offset)
     for h, vals, ses in run.finals:
-        if h.family == "pressure_sensor_offset":
-            run.mods = apply_offset(run.mods, h.chambers[0], float(vals[0]), run.n_chambers)
+        if h.family == "pressure_sensor_offset" and h not in run.refine:
+            run.mods = offset_of_term(run.mods, h, vals, run.n_chambers)
+        elif h.family == "pressure_sensor_offset":  # the replays' offset, refined (its drift kept)
+            c, m = h.chambers[0], run.mods
+            drift = (0.0, 0.0) if m.sensor_drift_pa is None else (m.sensor_drift_pa[c], m.sensor_drift_tau_s[c])
+            run.mods = apply_offset(m, c, float(vals[0]), run.n_chambers, *drift)
         _report_final(run.findings, h, run.refine, vals, ses)
 
 
@@ -43,9 +48,9 @@ def _withdraw_failing(run: DoctorRun, failing: list, replay_offset: np.ndarray) 
         for h in failing:
             if h in run.refine:
                 replay_offset[h.chambers[0]] = 0.0
-        run.mods = run.mods.copy(sensor_offset_pa=replay_offset.copy())
-        run.td = torque_data(corrected(run.exp, replay_offset))
-        run.td_h = torque_data(corrected(run.held, replay_offset))
+                run.mods = apply_offset(run.mods, h.chambers[0], 0.0, run.n_chambers)
+        run.td = torque_data(corrected(run.exp, run.mods))
+        run.td_h = torque_data(corrected(run.held, run.mods))
         run.rfit = fit_rigid_body(run.td)
     run.refine = [h for h in run.refine if h not in failing]
     run.kept_mech = [h for h in run.kept_mech if h not in failing]

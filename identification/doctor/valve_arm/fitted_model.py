@@ -126,6 +126,7 @@ _PNEUMATIC_FORMS = {
     ("line_dynamics", "delay_volume"): ("delay_s",),
     ("heat_transfer", "newton"): ("conductance_w_k",),
     ("pressure_sensor_offset", "additive"): ("offset_pa",),
+    ("pressure_sensor_offset", "warm_up_drift"): ("offset_pa", "drift_pa", "time_constant_s"),
     ("supply_droop", "linear"): ("droop_pa_per_kg_s",),
     ("backlash", "dead_zone"): ("gap_rad",),
 }

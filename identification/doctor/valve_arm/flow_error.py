@@ -132,8 +132,9 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
     F = exp.fine_t.size
     C = tab.n_chambers
     p = np.column_stack([np.interp(exp.fine_t, exp.t, exp.p_at_t[:, c]) for c in range(C)])
-    if mods.sensor_offset_pa is not None:
-        p = p - mods.sensor_offset_pa
+    offset = mods.sensor_offsets(exp.clock_at(fine=True))
+    if offset is not None:
+        p = p - offset
     model = ChamberModel(exp.robot, mods, 1)
     vol = model.dead + tab.area * model.travel(drive_side_lengths(exp, mods))       # (F, C)
     rt, n, room = model.rt, model.n, tab.room_pa

@@ -37,6 +37,13 @@ class Hypothesis:
     fixed: dict = field(default_factory=dict)  # parameters chosen before the linear fit: name -> {value, stderr}
     null_value: float = 0.0       # the parameter value that switches the effect off (apply(mods, [null]))
     adds_volume: float = 0.0      # a tube's volume adds to this nominal dead volume [m^3]: it may grow past the calibration bound
+    tested: tuple | None = None   # indices of the parameters the keep rule tests (None: all)
+
+    def keep_mask(self) -> np.ndarray:
+        """(k,) bool: the parameters that must each be MIN_T standard errors from 0 (a sensor's
+        warm-up drift must be; the offset it starts from may be 0)."""
+        k = len(self.params)
+        return np.ones(k, bool) if self.tested is None else np.isin(np.arange(k), self.tested)
 
     def __post_init__(self):
         if self.regressor is not None:  # the equations the torque data leave out, left out here too
@@ -126,6 +133,12 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
                        apply=_apply("line_dynamics", robot, place)),
             Hypothesis("pressure_sensor_offset", where, "pneumatic", [("offset_pa", 0.0, -5e4, 5e4, 2000.0)], [c],
                        apply=_apply("pressure_sensor_offset", robot, place)),
+            # a sensor warming up: its zero settles by drift_pa over time_constant_s from the
+            # recording's start (the time constant starts at 20 s; it matters once drift is not 0)
+            Hypothesis("pressure_sensor_offset", where, "pneumatic",
+                       [("offset_pa", 0.0, -5e4, 5e4, 2000.0), ("drift_pa", 0.0, -5e4, 5e4, 2000.0),
+                        ("time_constant_s", DRIFT_START_S, DRIFT_TAU_GRID_S[0], DRIFT_TAU_GRID_S[-1], 10.0)], [c],
+                       apply=_apply("pressure_sensor_offset", robot, place, "warm_up_drift"), tested=(1,)),
             Hypothesis("heat_transfer", where, "pneumatic",
                        [("conductance_w_k", 0.0, 0.0, HEAT_MAX_W_K, HEAT_PROBE_W_K)], [c],
                        apply=_apply("heat_transfer", robot, place), null_value=np.nan),
@@ -285,10 +298,51 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
     return out
 
 
+#: the time constants [s] a warming-up pressure sensor's drift is tried with in the torque
+#: balance (profile least squares, as the end stops' place); the longest is a near-linear drift
+#: over a minute's recording
+DRIFT_TAU_GRID_S = (3.0, 6.0, 12.0, 25.0, 50.0, 100.0, 300.0)
+#: where the replays' fit of the time constant starts [s]
+DRIFT_START_S = 20.0
+
+
+def _drift_regs(exp, td, c: int, tau_s: float):
+    """(N, J, 2) torque of chamber c's pressure-sensor offset per Pa: constant, and settling
+    as 1 - exp(-t / tau) on the recording's clock (pressure_sensor_offset, warm_up_drift)."""
+    settled = -np.expm1(-exp.clock_at() / tau_s)
+    unit = td.dtau_dp[:, :, c:c + 1]
+    return np.concatenate([unit, unit * settled[:, None, None]], axis=2)
+
+
+def drift_hypotheses(robot, exp, td) -> list[Hypothesis]:
+    """A warming-up pressure sensor at every chamber, seen by the torque balance as a force
+    error offset + drift (1 - exp(-t / tau)) times the chamber's area: offset and drift enter
+    linearly, tau is chosen on DRIFT_TAU_GRID_S by the residual of that linear fit (profile
+    least squares).  Not the end stops' two-fold residual: its halves are the recording's
+    first and second half, and a drift fitted on one half is extrapolated in time to the other."""
+    from .joint_fit import fit_effect
+    from .mechanics import fit_rigid_body
+
+    base = fit_rigid_body(td)
+    free = (np.full(2, -np.inf), np.full(2, np.inf))
+    out = []
+    for c, (a, ch) in enumerate(robot.chamber_names):
+        j = robot.joint_names.index(a) if a in robot.joint_names else 0
+        rss = [fit_effect(td, td.mask(_drift_regs(exp, td, c, tau)), ["offset_pa", "drift_pa"], free, base, 0).rss
+               for tau in DRIFT_TAU_GRID_S]
+        tau = DRIFT_TAU_GRID_S[int(np.argmin(rss))]
+        out.append(Hypothesis("pressure_sensor_offset", {"actuator": a, "chamber": ch}, "mechanical",
+                              [("offset_pa", 0.0, -5e4, 5e4, 0.0), ("drift_pa", 0.0, -5e4, 5e4, 0.0)],
+                              chambers=[c], joint=j, regressor=lambda e, td_, c=c, tau=tau: _drift_regs(e, td_, c, tau),
+                              fixed={"time_constant_s": {"value": tau, "stderr": 0.0}}, tested=(1,)))
+    return out
+
+
 def mechanical_hypotheses(robot, exp=None, td=None) -> list[Hypothesis]:
     """Friction, angle-sensor offsets and pressure-sensor offsets at every joint/chamber; end
-    stops too when the training data (``exp``, ``td``) are given to place them."""
-    out = end_stop_hypotheses(robot, exp, td) if exp is not None else []
+    stops and warming-up pressure sensors too when the training data (``exp``, ``td``) are
+    given to place them and choose their time constant."""
+    out = end_stop_hypotheses(robot, exp, td) + drift_hypotheses(robot, exp, td) if exp is not None else []
     for j, name in enumerate(robot.joint_names):
         w = {"joint": name}
         out += [

@@ -17,6 +17,7 @@ import numpy as np
 from pneumatics.chamber import GAMMA
 from pneumatics.effects.external_leak import laminar_flow
 from pneumatics.effects.heat_transfer import thermal_step
+from pneumatics.effects.pressure_sensor_offset import offset_at
 from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play, slew_limited
 from pneumatics.effects.valve_lag import slew_step_v
 from pneumatics.effects.valve_leak import UNDERLAP_WIDTH_V, WIDTH_V, leak_areas, underlap_areas
@@ -54,6 +55,8 @@ class PneumaticMods:
     delay_s: np.ndarray = None                # command dead time
     extra_volume_m3: np.ndarray = None        # line volume added to the dead volume
     sensor_offset_pa: np.ndarray = None       # measured = true + offset
+    sensor_drift_pa: np.ndarray = None        # + drift (1 - exp(-t / tau)), a sensor warming up
+    sensor_drift_tau_s: np.ndarray = None     # its time constant tau [s] (0: no drift)
     supply_droop_pa_per_kg_s: float = 0.0     # supply pressure drop per kg/s of total supply flow
     heat_w_k: np.ndarray = None               # gas-wall conductance h A [W/K]; NaN = eq. 9 (heat_transfer)
     backlash_rad: np.ndarray = None           # (n_act,) play between cylinder and link [rad] (backlash)
@@ -102,6 +105,17 @@ class PneumaticMods:
         if self.piston_leak_g is not None:
             out = [o + x for o, x in zip(out, laminar_flow(self.piston_leak_g, q[:, 0::2], q[:, 1::2], room_pa))]
         return out
+
+    def sensor_offsets(self, clock):
+        """What the pressure sensors add to the true pressures [Pa] at recording times
+        ``clock`` (any shape; the result that shape + (C,), or (C,) without drift), or None
+        without offsets (effects.pressure_sensor_offset.offset_at)."""
+        if self.sensor_offset_pa is None and self.sensor_drift_pa is None:
+            return None
+        offset = 0.0 if self.sensor_offset_pa is None else self.sensor_offset_pa
+        if self.sensor_drift_pa is None or not np.any(self.sensor_drift_pa):
+            return np.broadcast_to(offset, (self.supply_scale.size,)).astype(float)
+        return offset_at(np.asarray(clock, float)[..., None], offset, self.sensor_drift_pa, self.sensor_drift_tau_s)
 
     def copy(self, **changes) -> "PneumaticMods":
         import dataclasses
@@ -297,8 +311,9 @@ def drive_side_lengths(exp: Experiment, mods: PneumaticMods) -> np.ndarray:
         return exp.fine_length
     robot, tab = exp.robot, exp.robot.tables
     p = np.column_stack([np.interp(exp.fine_t, exp.t, exp.p_at_t[:, c]) for c in range(tab.n_chambers)])
-    if mods.sensor_offset_pa is not None:
-        p = p - mods.sensor_offset_pa
+    offset = mods.sensor_offsets(exp.clock_at(fine=True))
+    if offset is not None:
+        p = p - offset
     from pneumatics.chamber import actuator_force
     force = actuator_force(tab, p)
     width = BACKLASH_FORCE_FRACTION * tab.area_a * (tab.supply_pa - tab.room_pa)
@@ -310,8 +325,9 @@ def initial_pressure(exp: Experiment, k0, mods: PneumaticMods):
     """Pressures at sample times t[k0] (W, C) from the light smoothing spline of the measured
     pressures (the DAQ means stand half a period earlier); remove a modelled sensor offset."""
     p0 = exp.p_at_t[k0].copy()
-    if mods.sensor_offset_pa is not None:
-        p0 = p0 - mods.sensor_offset_pa
+    offset = mods.sensor_offsets(exp.clock_at()[k0])
+    if offset is not None:
+        p0 = p0 - offset
     return p0
 
 
@@ -339,7 +355,8 @@ def replay(exp: Experiment, win: Windows, mods: PneumaticMods):
         if (step + 1) % S == 0:
             out[:, (step + 1) // S - 1] = acc / S if exp.averaged else p
             acc[:] = 0
-    if mods.sensor_offset_pa is not None:
-        out = out + mods.sensor_offset_pa
     idx = k0[:, None] + 1 + np.arange(H)[None]
+    offset = mods.sensor_offsets(exp.clock_at()[idx])
+    if offset is not None:
+        out = out + offset
     return out, exp.p[idx]

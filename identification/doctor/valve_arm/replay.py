@@ -185,9 +185,10 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
             acc_p[:] = 0
             acc_q[:] = 0
     out_q += offset
-    if pmods.sensor_offset_pa is not None:
-        out_p += pmods.sensor_offset_pa
     idx = starts[:, None] + 1 + np.arange(H)[None]
+    offset = pmods.sensor_offsets(exp.clock_at()[idx])
+    if offset is not None:
+        out_p += offset
     pred, meas = {}, {}
     for j, name in enumerate(robot.joint_names):
         pred[f"q.{name}"], meas[f"q.{name}"] = out_q[:, :, j].ravel(), exp.q[idx, j].ravel()

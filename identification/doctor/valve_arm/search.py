@@ -86,11 +86,33 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             run.tried.update(s.hyp.label for s in scored if set(s.hyp.chambers) & place and "supply" not in s.hyp.where)
             run.tried.add(finding.scored.hyp.label)
             continue
+        if finding.family == "pressure_sensor_offset" and not offset_seen_by_torque_balance(run, finding):
+            # a sensor offset changes what is read, not the force: one the torque balance
+            # contradicts is the replays' stand-in for a pressure that really changed
+            say(f"{finding.scored.hyp.label}: the torque balance contradicts a sensor offset there")
+            run.tried.add(finding.scored.hyp.label)
+            continue
         if finding.family == "line_dynamics":
             finding = line_named(run, finding)
         run.findings.append(finding)
         run.tried.add(finding.scored.hyp.label)
         run.mods = finding.scored.mods
+
+
+def offset_seen_by_torque_balance(run: DoctorRun, finding: Finding) -> bool:
+    """Whether the torque balance agrees with a pressure-sensor offset the replays found: the
+    offset changes the reading, not the cylinder's force, so taking it out of the measured
+    pressures must not make the held-out torque residual at the cylinder's joint worse.  A
+    pressure that really changed (a supply that stepped down mid-recording) can be mimicked in
+    one chamber's replays by a drifting offset, and then the torque balance, which saw the
+    true pressures, is thrown off by the correction."""
+    a = finding.where["actuator"]
+    j = run.robot.joint_names.index(a) if a in run.robot.joint_names else 0
+    block = mech_block(run.held)
+    before = torque_rms(run.td_h, fit_rigid_body(run.td), None, block)[j]
+    td_c, td_hc = torque_data(corrected(run.exp, finding.scored.mods)), torque_data(corrected(run.held, finding.scored.mods))
+    after = torque_rms(td_hc, fit_rigid_body(td_c), None, block)[j]
+    return bool(after <= before)
 
 
 def start_torque_balance(run: DoctorRun) -> None:
@@ -100,9 +122,9 @@ def start_torque_balance(run: DoctorRun) -> None:
     offset).  Replays restarted from measured pressures see a constant offset only near the
     supply and room asymptotes; the torque balance sees it everywhere as a force error."""
     mods = run.mods
-    if mods.sensor_offset_pa is not None and np.any(mods.sensor_offset_pa != 0):
-        run.td = torque_data(corrected(run.exp, mods.sensor_offset_pa))
-        run.td_h = torque_data(corrected(run.held, mods.sensor_offset_pa))
+    if any(a is not None and np.any(a != 0) for a in (mods.sensor_offset_pa, mods.sensor_drift_pa)):
+        run.td = torque_data(corrected(run.exp, mods))
+        run.td_h = torque_data(corrected(run.held, mods))
         run.rfit = fit_rigid_body(run.td)
     run.refine = [h for h in mechanical_hypotheses(run.robot) if h.family == "pressure_sensor_offset"
                   and any(f.family == "pressure_sensor_offset" and f.where == h.where for f in run.findings)]
@@ -193,7 +215,8 @@ def accept_best(candidates: list, keep: float) -> Finding | None:
             continue  # the refitted calibration paid, not the effect
         k = len(best.hyp.params)
         values, ses = best.fit.values[-k:], best.fit.stderr[-k:]
-        if np.any(~np.isfinite(ses)) or np.any(ses <= 0) or np.any(np.abs(values) < MIN_T * ses):
+        m = best.hyp.keep_mask()
+        if np.any(~np.isfinite(ses[m])) or np.any(ses[m] <= 0) or np.any(np.abs(values[m]) < MIN_T * ses[m]):
             # a parameter it needs is not significant (or stuck at a bound, where least squares
             # gives no error bar: then the gain came from the calibration refitted with it)
             continue
@@ -350,7 +373,7 @@ def finding_params(s: Scored) -> dict:
 #: None: not a MechMods term (a pressure-sensor offset acts on the chamber model)
 MECH_ATTRS = {"coulomb_nm": "coulomb_nm", "breakaway_extra_nm": "stiction_extra_nm",
               "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad",
-              "offset_pa": None, "stiffness_nm_per_rad": "end_stop_nm_per_rad",
+              "offset_pa": None, "drift_pa": None, "stiffness_nm_per_rad": "end_stop_nm_per_rad",
               "damping_nm_s_per_rad": "end_stop_nm_s_per_rad"}
 
 
@@ -359,11 +382,26 @@ def mech_attr(param):
     return MECH_ATTRS[param]
 
 
-def apply_offset(mods: PneumaticMods, c: int, offset_pa: float, n_ch: int) -> PneumaticMods:
-    """``mods`` with chamber c's pressure-sensor offset set to ``offset_pa`` [Pa]."""
-    arr = np.zeros(n_ch) if mods.sensor_offset_pa is None else mods.sensor_offset_pa.copy()
-    arr[c] = offset_pa
-    return mods.copy(sensor_offset_pa=arr)
+def apply_offset(mods: PneumaticMods, c: int, offset_pa: float, n_ch: int, drift_pa: float = 0.0,
+                 time_constant_s: float = 0.0) -> PneumaticMods:
+    """``mods`` with chamber c's pressure-sensor offset set to ``offset_pa`` [Pa] and its
+    warm-up drift to ``drift_pa`` [Pa] over ``time_constant_s`` (none by default)."""
+    arrays = {}
+    for attr, value in (("sensor_offset_pa", offset_pa), ("sensor_drift_pa", drift_pa),
+                        ("sensor_drift_tau_s", time_constant_s)):
+        arr = np.zeros(n_ch) if getattr(mods, attr) is None else getattr(mods, attr).copy()
+        arr[c] = value
+        arrays[attr] = arr
+    return mods.copy(**arrays)
+
+
+def offset_of_term(mods: PneumaticMods, h, values, n_ch: int) -> PneumaticMods:
+    """``mods`` with the pressure-sensor offset of the torque-balance term ``h`` at ``values``
+    (offset, and the drift of the warm-up form with its chosen time constant)."""
+    if len(values) > 1:
+        return apply_offset(mods, h.chambers[0], float(values[0]), n_ch, float(values[1]),
+                            h.fixed["time_constant_s"]["value"])
+    return apply_offset(mods, h.chambers[0], float(values[0]), n_ch)
 
 
 def offset_place(run: DoctorRun, finding: Finding, scored: list) -> Finding:
@@ -376,9 +414,10 @@ def offset_place(run: DoctorRun, finding: Finding, scored: list) -> Finding:
     readings, an isolability statement rather than a guess, carried on chamber a (equivalent
     for the torque)."""
     act = finding.where["actuator"]
-    cands = {s.hyp.where["chamber"]: s for s in scored
-             if s.hyp.family == "pressure_sensor_offset" and s.hyp.where["actuator"] == act}
-    chamber = offset_chamber(run, act)
+    form = [p[0] for p in finding.scored.hyp.params]  # the constant or the drifting offset
+    cands = {s.hyp.where["chamber"]: s for s in scored if s.hyp.family == "pressure_sensor_offset"
+             and s.hyp.where["actuator"] == act and [p[0] for p in s.hyp.params] == form}
+    chamber = offset_chamber(run, act, drifting=len(form) > 1)
     primary = cands.get(chamber or "a", finding.scored)
     where = {"actuator": act} if chamber is None else {"actuator": act, "chamber": chamber}
     f = Finding(primary, primary.hyp.family, where, finding_params(primary), primary.heldout_gain,
@@ -391,13 +430,15 @@ def offset_place(run: DoctorRun, finding: Finding, scored: list) -> Finding:
     return f
 
 
-def offset_chamber(run: DoctorRun, act: str) -> str | None:
+def offset_chamber(run: DoctorRun, act: str, drifting: bool = False) -> str | None:
     """The chamber of actuator ``act`` whose pressure replays a sensor offset explains: each
-    chamber's offset fitted with the chamber calibration (the replays' own pneumatic
-    hypothesis), judged by the reduction of that chamber's held-out mean square.  The best if
-    it pays (>= PNEU_KEEP) and no other chamber comes within ISOLABLE of it; else None."""
+    chamber's offset (``drifting``: the warm-up form) fitted with the chamber calibration (the
+    replays' own pneumatic hypothesis), judged by the reduction of that chamber's held-out mean
+    square.  The best if it pays (>= PNEU_KEEP) and no other chamber comes within ISOLABLE of
+    it; else None."""
     hyps = [h for h in pneumatic_hypotheses(run.robot)
-            if h.family == "pressure_sensor_offset" and h.where["actuator"] == act]
+            if h.family == "pressure_sensor_offset" and h.where["actuator"] == act
+            and (len(h.params) > 1) == drifting]
     trials, _ = score_pneumatic(run.exp, run.win, run.mods, hyps, run.sigma)
     base = chamber_rms(run.held, run.win_h, run.mods)
     gains = {}
@@ -413,7 +454,11 @@ def offset_chamber(run: DoctorRun, act: str) -> str | None:
     return None
 
 
-def corrected(exp: Experiment, offset_pa: np.ndarray) -> Experiment:
-    """The experiment with fitted pressure-sensor offsets taken out of the measured pressures."""
+def corrected(exp: Experiment, mods: PneumaticMods) -> Experiment:
+    """The experiment with the pressure-sensor offsets of ``mods`` (and their drifts) taken out
+    of the measured pressures."""
     import dataclasses
-    return dataclasses.replace(exp, p=exp.p - offset_pa, p_at_t=exp.p_at_t - offset_pa)
+    offset = mods.sensor_offsets(exp.clock_at())
+    if offset is None:
+        return exp
+    return dataclasses.replace(exp, p=exp.p - offset, p_at_t=exp.p_at_t - offset)

@@ -36,8 +36,9 @@ def _inputs(exp: Experiment, mods, chambers, u_fine: np.ndarray):
     cs = np.asarray(chambers, int)
     F = exp.fine_t.size
     p = np.column_stack([np.interp(exp.fine_t, exp.t, exp.p_at_t[:, c]) for c in cs])
-    if mods.sensor_offset_pa is not None:
-        p = p - mods.sensor_offset_pa[cs]
+    offset = mods.sensor_offsets(exp.clock_at(fine=True))
+    if offset is not None:
+        p = p - offset[..., cs]
     p = np.maximum(p, 1e3)
     act = tab.actuator_of_chamber[cs]
     x = np.clip(exp.fine_length[:, act] - tab.length_zero[act], 0.0, tab.stroke[act])
