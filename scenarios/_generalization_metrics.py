@@ -41,6 +41,10 @@ Definitions (primary metrics are strict; the lenient ones are the second column)
   calibration_of_inclusion_lenient counts alternatives, alternative places and the friction
   leniency (``same``).
 
+Cases the generator failed to make (``generator_error`` in their row: a recording its
+integrator left non-finite) are invalid: left out of every metric, counted in
+``generator_errors`` and listed in ``generator_error_seeds`` (comma-separated).
+
 doctor_errors counts the cases where the doctor failed (they count as cases with no finding
 and no unexplained entry); concealed_fraction is the fraction of non-null cases the generator
 concealed as it aims to (the rows' ``concealed``, where known).
@@ -169,6 +173,8 @@ def outside_metrics(rows: list[dict]) -> dict:
 def generalization_metrics(rows: list[dict], families: list[str], same=None) -> dict:
     """Every metric of the module docstring from the case rows; ``families``: the vocabulary
     families of the plan (for the per-family values); ``same``: the lenient family match."""
+    invalid = [r for r in rows if r.get("generator_error")]
+    rows = [r for r in rows if not r.get("generator_error")]
     by = {k: [r for r in rows if r["kind"] == k] for k in ("null", "single", "pair", "outside")}
     effect = by["single"] + by["pair"]
     non_null = effect + by["outside"]
@@ -190,6 +196,7 @@ def generalization_metrics(rows: list[dict], families: list[str], same=None) -> 
         "findings_with_in_regime_nrmse": len(reductions),
         "calibration_of_inclusion": cal, "calibration_of_inclusion_lenient": cal_lenient, "calibration_count": n_cal,
         "doctor_errors": sum(bool(r.get("doctor_error")) for r in rows),
+        "generator_errors": len(invalid), "generator_error_seeds": ",".join(str(r["seed"]) for r in invalid),
         "concealed_fraction": _mean([bool(r["concealed"]) for r in non_null if r.get("concealed") is not None]),
         "seconds_per_case": _mean([r["seconds"] for r in rows]),
         "generate_seconds_per_case": _mean([r["generate_seconds"] for r in rows]),

@@ -43,7 +43,7 @@ from workflow.sweep import options_from_env, raise_on_failure, sweep
 
 from ._benchmark import confusion_matrix, fresh_seed_base, plot_confusion
 from ._generalization_metrics import OUTSIDE, case_kind, generalization_metrics, strict_effect_right, strict_location_right
-from ._variantsim.cases import make_case
+from ._variantsim.cases import GeneratorError, make_case
 from .common import main
 from .doctor_blind_benchmark import judge, same_family
 
@@ -191,7 +191,12 @@ def generalization_case(case: dict) -> dict:
     report beside the truth, return the case's row (scenarios._generalization_metrics)."""
     folder = Path(case["out"]) / f"case_{case['seed']}"
     t0 = time.perf_counter()
-    truth = _make(folder, case)
+    try:
+        truth = _make(folder, case)
+    except GeneratorError as e:  # the generator's failure, not the doctor's: an invalid case
+        return {"index": case["index"], "seed": case["seed"], "case": folder.name, "kind": case_kind(case["families"]),
+                "families": case["families"] or ["none"], "generator_error": str(e), "effects": [], "findings": [],
+                "unexplained": [], "seconds": None, "generate_seconds": time.perf_counter() - t0}
     gen_s = time.perf_counter() - t0
     t0 = time.perf_counter()
     report, error = _diagnose(truth, folder)
@@ -230,11 +235,14 @@ def run(ctx):
     _confusion(rows, ctx)
     metrics = generalization_metrics(rows, list(FAMILIES), lambda a, b: same_family(a, b, False))
     return {**metrics, "seed_base": base, "seeds": f"{base}..{base + len(rows) - 1}", "seed_source": source,
-            "generator": ",".join(sorted({str(r["generator"]) for r in rows}))}
+            "generator": ",".join(sorted({str(r["generator"]) for r in rows if not r.get("generator_error")}))}
 
 
 def _print_cases(rows: list[dict]) -> None:
     for r in rows:
+        if r.get("generator_error"):
+            print(f"  {r['case']}: invalid, the generator failed: {r['generator_error']}")
+            continue
         hidden = [f"{e['family']}({e['form']})@{'/'.join(str(v) for v in e['where'].values())}" for e in r["effects"]]
         named = [f"{f['effect']}@{'/'.join(str(v) for v in f['where'].values())}" for f in r["findings"]]
         judged = (f"strict effect {'ok' if strict_effect_right(r) else 'WRONG'}, "
@@ -250,7 +258,7 @@ def _confusion(rows: list[dict], ctx) -> None:
     cols = list(FAMILIES) + ["none", "unexplained", "other"]
     named = [{"families": r["families"],
               "named": [f["effect"] for f in r["findings"]] or (["unexplained"] if r["unexplained"] else [])}
-             for r in rows]
+             for r in rows if not r.get("generator_error")]
     mat = confusion_matrix(named, hidden, cols)
     plot_confusion(ctx, mat, hidden, cols, "doctor on fresh random-form cases: strict confusion matrix\n"
                    "(an extra finding beside a right one counts in its row too)")

@@ -106,6 +106,27 @@ def test_a_doctor_error_is_a_silent_miss_and_counted():
     assert m["concealed_fraction"] == 0.5
 
 
+def test_a_case_the_generator_failed_is_invalid_left_out_and_listed():
+    invalid = {"kind": "single", "families": ["line_dynamics"], "seed": 7, "generator_error": "GeneratorError: x",
+               "effects": [], "findings": [], "unexplained": [], "seconds": None, "generate_seconds": 1.0}
+    m = generalization_metrics([invalid, RIGHT_SINGLE, SILENT], ["valve_lag", "line_dynamics"])
+    assert m["cases"] == 2 and m["generator_errors"] == 1 and m["generator_error_seeds"] == "7"
+    assert m["strict_effect_accuracy"] == 0.5 and m["silent_miss_rate"] == 0.5
+    assert "strict_effect_accuracy.line_dynamics" not in m  # no valid case of that family
+
+
+def test_a_generator_failure_becomes_an_invalid_row_not_a_failed_run(tmp_path, monkeypatch):
+    import scenarios.doctor_generalization_benchmark as bench
+    from scenarios._variantsim.cases import GeneratorError
+
+    def unstable(*args, **kwargs):
+        raise GeneratorError("variant case x (seed 5, ['two_volume_line']): the main recording has non-finite values")
+    monkeypatch.setattr(bench, "make_case", unstable)
+    r = bench.generalization_case({"index": 0, "seed": 5, "families": ["line_dynamics"], "forms": None,
+                                   "seconds": 1.0, "heldout_seconds": 1.0, "out": str(tmp_path)})
+    assert r["generator_error"].startswith("variant case x") and r["findings"] == [] and r["kind"] == "single"
+
+
 def test_min_family_accuracy_is_the_worst_family():
     rows = [RIGHT_SINGLE, SILENT, row([("coulomb_friction", SHOULDER)], [finding("coulomb_friction", SHOULDER)])]
     m = family_metrics(rows, ["valve_lag", "coulomb_friction"])

@@ -26,6 +26,12 @@ GENERATOR = "variantsim-3"
 CHANNELS = COLUMNS[1:7]
 NOISE = np.array([ANGLE_NOISE_RAD] * 2 + [PRESSURE_NOISE_PA] * 4)
 BAND = {"r2_lo": 0.91, "r2_hi": 0.97, "r2_min": 0.9, "snr_min": 3.0}
+class GeneratorError(ValueError):
+    """The generator could not make a case: its integrator left a recording non-finite (a form
+    it does not keep stable at those parameters).  Not the doctor's failure: a benchmark
+    records the case as invalid."""
+
+
 #: pairs whose effects interact: a supply effect beside a chamber effect, a mechanical one
 #: beside a pneumatic one, an effect outside the vocabulary beside one inside it
 INTERACTING_PAIRS = (
@@ -157,8 +163,8 @@ def make_case(out: Path, seed: int, families: list[str], *, forms: list | None =
     for which, rec in (("main", main), ("heldout", held)):
         bad = [c for c, ok in zip(COLUMNS, np.all(np.isfinite(table(rec)), axis=0)) if not ok]
         if bad:  # a form the integrator does not keep stable: fail here, not as the doctor's refusal
-            raise ValueError(f"variant case {name} (seed {seed}, {[e['form'] for e in effects]}): the {which} "
-                             f"recording has non-finite values in {', '.join(bad)}")
+            raise GeneratorError(f"variant case {name} (seed {seed}, {[e['form'] for e in effects]}): the {which} "
+                                 f"recording has non-finite values in {', '.join(bad)}")
     write_csv(Path(paths["main"]), table(main))
     write_csv(Path(paths["heldout"]), table(held))
     truth = {"case_id": name, "generator": GENERATOR, "seed": seed,
