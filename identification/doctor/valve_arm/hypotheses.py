@@ -317,19 +317,28 @@ def _drift_regs(exp, td, c: int, tau_s: float):
 def drift_hypotheses(robot, exp, td) -> list[Hypothesis]:
     """A warming-up pressure sensor at every chamber, seen by the torque balance as a force
     error offset + drift (1 - exp(-t / tau)) times the chamber's area: offset and drift enter
-    linearly, tau is chosen on DRIFT_TAU_GRID_S by the residual of that linear fit (profile
-    least squares).  Not the end stops' two-fold residual: its halves are the recording's
-    first and second half, and a drift fitted on one half is extrapolated in time to the other."""
-    from .joint_fit import fit_effect
+    linearly, tau is chosen on DRIFT_TAU_GRID_S by how much of the calibrated rigid body's
+    residual the two columns take up (profile least squares; the rigid body is refitted beside
+    the chosen one when the hypothesis is scored).  Not the end stops' two-fold residual: its
+    halves are the recording's first and second half, and a drift fitted on one half is
+    extrapolated in time to the other."""
     from .mechanics import fit_rigid_body
 
+    v = td.valid
     base = fit_rigid_body(td)
-    free = (np.full(2, -np.inf), np.full(2, np.inf))
+    residual = td.residual[v] - np.einsum("njp,p->nj", td.regressors[v], base.values)   # (M, J)
+    clock = exp.clock_at()[v]
     out = []
     for c, (a, ch) in enumerate(robot.chamber_names):
         j = robot.joint_names.index(a) if a in robot.joint_names else 0
-        rss = [fit_effect(td, td.mask(_drift_regs(exp, td, c, tau)), ["offset_pa", "drift_pa"], free, base, 0).rss
-               for tau in DRIFT_TAU_GRID_S]
+        unit = td.mask(td.dtau_dp[:, :, c:c + 1])[v][:, :, 0]                           # (M, J)
+        acts = np.any(unit != 0, axis=0)  # the joints this chamber's force reaches: the rest
+        unit, r = unit[:, acts], residual[:, acts].ravel()  # add the same to every tau's rss
+        rss = []
+        for tau in DRIFT_TAU_GRID_S:  # _drift_regs at those joints
+            A = np.column_stack([unit.ravel(), (unit * -np.expm1(-clock / tau)[:, None]).ravel()])
+            coef = np.linalg.lstsq(A, r, rcond=None)[0]
+            rss.append(float(np.sum((r - A @ coef) ** 2)))
         tau = DRIFT_TAU_GRID_S[int(np.argmin(rss))]
         out.append(Hypothesis("pressure_sensor_offset", {"actuator": a, "chamber": ch}, "mechanical",
                               [("offset_pa", 0.0, -5e4, 5e4, 0.0), ("drift_pa", 0.0, -5e4, 5e4, 0.0)],
