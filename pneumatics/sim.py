@@ -128,6 +128,7 @@ class Simulation:
         self._hysteresis = self.effects.chamber_array(robot, "valve_hysteresis_v")
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
         self._p_drift, self._p_drift_tau = self.effects.drift_arrays(robot)
+        self._drifting = bool(self._p_drift.any())  # decided once: observe() is on the control loop
         self._q_offset = self.effects.joint_array(robot, "angle_offset_rad")
         self._fric = self.effects.friction_table(robot, self.model)
         # heat_transfer: those chambers carry a gas temperature [K] and step in Python
@@ -207,7 +208,7 @@ class Simulation:
     def pressure_offset_now(self) -> np.ndarray:
         """(n_ch,) what the pressure sensors add to the true pressures now [Pa]: the offsets,
         with a warming-up sensor's drift at the simulation's time (pressure_sensor_offset)."""
-        if not self._p_drift.any():
+        if not self._drifting:
             return self._p_offset
         return offset_at(self.time, self._p_offset, self._p_drift, self._p_drift_tau)
 

@@ -109,7 +109,7 @@ def offset_seen_by_torque_balance(run: DoctorRun, finding: Finding) -> bool:
     a = finding.where["actuator"]
     j = run.robot.joint_names.index(a) if a in run.robot.joint_names else 0
     block = mech_block(run.held)
-    before = torque_rms(run.td_h, fit_rigid_body(run.td), None, block)[j]
+    before = torque_rms(run.td_h, run.rfit, None, block)[j]  # run.rfit: the rigid body fitted to run.td
     td_c, td_hc = torque_data(corrected(run.exp, finding.scored.mods)), torque_data(corrected(run.held, finding.scored.mods))
     after = torque_rms(td_hc, fit_rigid_body(td_c), None, block)[j]
     return bool(after <= before)
