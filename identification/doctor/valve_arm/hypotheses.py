@@ -18,6 +18,7 @@ import numpy as np
 
 from pneumatics.effects.end_stop import penetration
 from pneumatics.effects.friction import coulomb_shape
+from pneumatics.effects.pressure_sensor_offset import offset_at
 from pneumatics.effects.registry import get_family
 
 __all__ = ["Hypothesis", "end_stop_hypotheses", "mechanical_hypotheses", "penetration", "pneumatic_hypotheses",
@@ -309,7 +310,7 @@ DRIFT_START_S = 20.0
 def _drift_regs(exp, td, c: int, tau_s: float):
     """(N, J, 2) torque of chamber c's pressure-sensor offset per Pa: constant, and settling
     as 1 - exp(-t / tau) on the recording's clock (pressure_sensor_offset, warm_up_drift)."""
-    settled = -np.expm1(-exp.clock_at() / tau_s)
+    settled = offset_at(exp.clock_at(), 0.0, 1.0, tau_s)  # the family's law per Pa of drift
     unit = td.dtau_dp[:, :, c:c + 1]
     return np.concatenate([unit, unit * settled[:, None, None]], axis=2)
 
@@ -336,7 +337,7 @@ def drift_hypotheses(robot, exp, td) -> list[Hypothesis]:
         unit, r = unit[:, acts], residual[:, acts].ravel()  # add the same to every tau's rss
         rss = []
         for tau in DRIFT_TAU_GRID_S:  # _drift_regs at those joints
-            A = np.column_stack([unit.ravel(), (unit * -np.expm1(-clock / tau)[:, None]).ravel()])
+            A = np.column_stack([unit.ravel(), (unit * offset_at(clock, 0.0, 1.0, tau)[:, None]).ravel()])
             coef = np.linalg.lstsq(A, r, rcond=None)[0]
             rss.append(float(np.sum((r - A @ coef) ** 2)))
         tau = DRIFT_TAU_GRID_S[int(np.argmin(rss))]
