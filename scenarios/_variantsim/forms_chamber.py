@@ -135,11 +135,14 @@ VALVE_LAG = [
 # -- line_dynamics ----------------------------------------------------------------------------------------
 def _richer(col, e, h):
     """Richer & Hurmuzlu 2000 eq. 19: delay L/c, attenuation exp(-R_t R T L / (2 p c)),
-    R_t = 32 mu / d^2 (laminar), at a nominal 4 bar."""
+    R_t = 32 mu / d^2 (laminar), at a nominal 4 bar; the tube's volume pi d^2 L / 4 joins the
+    chamber's (the air the tube holds rises and falls with the chamber's pressure: a delayed
+    flow alone would keep the tube's mass constant)."""
     L, d = e["length_m"], e["diameter_m"]
     rt = 32.0 * F.MU_AIR / d ** 2
     att = math.exp(-rt * F.R_GAS * F.T0 * L / (2.0 * 4.0e5 * F.SOUND_M_S))
-    _set(h, col, [(R.LN_MODE, float(K.LN_DELAYED)), (R.LN_DELAY, L / F.SOUND_M_S), (R.LN_ATT, att), (R.LN_V, 0.0)])
+    _set(h, col, [(R.LN_MODE, float(K.LN_DELAYED)), (R.LN_DELAY, L / F.SOUND_M_S), (R.LN_ATT, att),
+                  (R.LN_V, math.pi * d ** 2 / 4.0 * L)])
 
 
 RICHER = "Richer & Hurmuzlu 2000, ASME JDSMC 122:405"
@@ -163,7 +166,8 @@ LINE = [
                                          (R.LN_V, math.pi * e["diameter_m"] ** 2 / 4 * e["length_m"])]),
          scaled=("length_m",), slots=("line",)),
     Form("line_dynamics", "richer_hurmuzlu_line", "chamber", RICHER + " eq. 19",
-         "distributed line: flow delayed by L/c and attenuated by exp(−R_t R T L/(2 p c)); tube 0.5–2 m, 2–4 mm bore",
+         "distributed line: flow delayed by L/c and attenuated by exp(−R_t R T L/(2 p c)), the tube's volume π d² L/4 "
+         "added to the chamber; tube 0.5–2 m, 2–4 mm bore",
          lambda r, c: {"length_m": _u(r, 0.5, 2.0), "diameter_m": _u(r, 0.002, 0.004)},
          _richer, scaled=("length_m",), slots=("line",)),
 ]

@@ -21,6 +21,8 @@ from pneumatics.effects.friction import coulomb_shape
 from pneumatics.effects.pressure_sensor_offset import offset_at
 from pneumatics.effects.registry import get_family
 
+from .calibrate import SCALE_BOUND
+
 __all__ = ["Hypothesis", "end_stop_hypotheses", "mechanical_hypotheses", "penetration", "pneumatic_hypotheses",
            "smooth_torque_yardstick"]
 
@@ -54,6 +56,16 @@ class Hypothesis:
     def null_vector(self) -> np.ndarray:
         """Every parameter at the value that switches the effect off."""
         return np.full(len(self.params), self.null_value)
+
+    def switched_off(self, mods):
+        """``mods`` without this effect: its parameters at their null values, and a tube's
+        volume (``adds_volume``) taken back to what a calibration may hold (SCALE_BOUND)."""
+        out = self.apply(mods, self.null_vector())
+        if self.adds_volume:
+            scale = out.dead_volume_scale.copy()
+            scale[self.chambers] = np.minimum(scale[self.chambers], SCALE_BOUND)
+            out = out.copy(dead_volume_scale=scale)
+        return out
 
     @property
     def label(self) -> str:

@@ -152,8 +152,7 @@ def outside_torque(robot, held, td_h, rfit, j: int, best: Finding | None, yard_g
 
 def without_finding(mods: PneumaticMods, f: Finding) -> PneumaticMods:
     """The final chamber model without finding f's effect (its parameter set to the null value)."""
-    h = f.scored.hyp
-    return h.apply(mods, h.null_vector())
+    return f.scored.hyp.switched_off(mods)
 
 
 def mods_without_all(mods, findings):

@@ -82,6 +82,8 @@ def score_pneumatic(exp, win, mods, hyps, sigma, grouped: bool = True):
             for h in group:
                 m = h.apply(m, x0 + probe * np.eye(len(x0))[i])
             deltas.append((replay(exp, win, m)[0] - pred) / sigma / probe[i])
+        if h0.adds_volume:  # the tube's volume: the dead volume grows past the calibration's bound
+            deltas.append(_volume_probe(exp, win, mods, group, pred, sigma))
         for h in group:
             cs = h.chambers if grouped else slice(None)
             G = np.stack([d[:, :, cs].ravel() for d in deltas], axis=1)
@@ -89,13 +91,31 @@ def score_pneumatic(exp, win, mods, hyps, sigma, grouped: bool = True):
     return [scored[id(h)] for h in hyps], total
 
 
+#: the probe step of a tube hypothesis's dead-volume column: log of the dead volume's scale
+VOLUME_PROBE = 0.05
+
+
+def _volume_probe(exp, win, mods, group, pred, sigma) -> np.ndarray:
+    """Change of the residuals per unit of log dead-volume scale at the group's chambers.  A
+    line's volume adds to its chamber's (Hypothesis.adds_volume), so its score test weighs the
+    volume beside the delay: the calibration holds the dead volume within its bound, and a tube
+    whose volume sits beyond it is otherwise invisible to the test (a delay of 0 scores 0)."""
+    scale = mods.dead_volume_scale.copy()
+    for h in group:
+        scale[h.chambers] *= np.exp(VOLUME_PROBE)
+    return (replay(exp, win, mods.copy(dead_volume_scale=scale))[0] - pred) / sigma / VOLUME_PROBE
+
+
 def _score_gain(h, G: np.ndarray, r0: np.ndarray, x0: np.ndarray, total: float) -> float:
     """The share of the total squared residual the best bounded step along G (n, k) removes
-    from r0 (n,) (linear least squares of -r0 on G within the parameters' bounds)."""
+    from r0 (n,) (linear least squares of -r0 on G within the parameters' bounds; a tube's
+    volume column, the last with ``adds_volume``, only grows)."""
     if not np.any(G):
         return 0.0
     lo = np.array([p[2] for p in h.params]) - x0
     hi = np.array([p[3] for p in h.params]) - x0
+    if h.adds_volume:
+        lo, hi = np.append(lo, 0.0), np.append(hi, np.inf)
     step = lsq_linear(G, -r0, bounds=(lo, hi)).x
     return max((float(r0 @ r0) - float(np.sum((r0 + G @ step) ** 2))) / total, 0.0)
 

@@ -14,6 +14,7 @@ from identification.base.statistics import robust_ceiling
 from .flex_check import partial_projection, suggested_candidates
 from .joint_fit import fit_effect
 from .hypotheses import angle_profile_yardstick, mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
+from .calibrate import SCALE_BOUND
 from .data import Experiment
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
 from .naming import friction_named, line_named
@@ -66,7 +67,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             say(f"fitting {s.hyp.label}")
             fit_pneumatic(s, exp, run.fit_win, run.mods, run.sigma)
             s.heldout_before, s.heldout_after = base_h, chamber_rms(held, win_h, s.mods)
-            s.heldout_null = chamber_rms(held, win_h, s.hyp.apply(s.mods, s.hyp.null_vector()))
+            s.heldout_null = chamber_rms(held, win_h, s.hyp.switched_off(s.mods))
         # ranked on one footing: the held-out residual of every chamber the candidates touch.
         # Each one's own chambers would favour a flexible effect at one chamber over one that
         # explains the cylinder's two (doctor_variant_benchmark seed 7005: a two-area valve leak on chamber b
@@ -215,8 +216,7 @@ def accept_best(candidates: list, keep: float) -> Finding | None:
             continue  # the refitted calibration paid, not the effect
         k = len(best.hyp.params)
         values, ses = best.fit.values[-k:], best.fit.stderr[-k:]
-        m = best.hyp.keep_mask()
-        if np.any(~np.isfinite(ses[m])) or np.any(ses[m] <= 0) or np.any(np.abs(values[m]) < MIN_T * ses[m]):
+        if not (significant(values, ses, best.hyp.keep_mask()) or tube_volume_significant(best)):
             # a parameter it needs is not significant (or stuck at a bound, where least squares
             # gives no error bar: then the gain came from the calibration refitted with it)
             continue
@@ -237,6 +237,25 @@ def accept_best(candidates: list, keep: float) -> Finding | None:
             alts.append(richer.hyp.family)
         return Finding(best, best.hyp.family, best.hyp.where, finding_params(best), best.heldout_gain, alts)
     return None
+
+
+def significant(values, ses, mask) -> bool:
+    """Whether the parameters ``mask`` selects are each MIN_T standard errors from 0."""
+    v, e = values[mask], ses[mask]
+    return bool(np.all(np.isfinite(e)) and np.all(e > 0) and np.all(np.abs(v) >= MIN_T * e))
+
+
+def tube_volume_significant(s: Scored) -> bool:
+    """Whether a line's fit holds more volume at its chamber than a calibration may: its dead
+    volume's log scale MIN_T standard errors above log SCALE_BOUND.  A tube long and wide
+    enough carries its flow with no delay worth the name and shows only as volume (a lumped
+    line of 0.2-1 m whose wave time is 1-3 ms)."""
+    if not s.hyp.adds_volume:
+        return False
+    w = s.hyp.where
+    i = s.fit.names.index(f"dead_volume_scale.{w['actuator']}.{w['chamber']}")
+    se = float(s.fit.stderr[i])
+    return bool(np.isfinite(se) and se > 0 and s.fit.values[i] - np.log(SCALE_BOUND) >= MIN_T * se)
 
 
 def worth_fitting(cands: list) -> list:

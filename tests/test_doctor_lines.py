@@ -1,0 +1,53 @@
+"""The doctor on a tube between valve and chamber that shows as volume alone: a lumped line
+(three R-L-C segments) of the independent variant simulator, whose 1-3 ms of wave time is no
+delay worth the name while its volume is as large as the chamber's dead volume."""
+import numpy as np
+import pytest
+
+from identification.doctor.valve_arm.calibrate import SCALE_BOUND
+from identification.doctor.valve_arm.diagnose import _calibrated_run, diagnose
+from identification.doctor.valve_arm.hypotheses import pneumatic_hypotheses
+from identification.doctor.valve_arm.rules import MIN_PREDICTED
+from identification.doctor.valve_arm.screening import score_pneumatic
+from pneumatics.recording import read_csv
+from pneumatics.robot import load_robot
+from scenarios._variantsim.cases import make_case
+
+SEED = 5011  # an rlc_segments line at shoulder.a (60 s: 0.5 m of 3 mm bore, 3.5 cm^3)
+
+
+def _case(tmp_path, seconds):
+    truth = make_case(tmp_path, SEED, ["line_dynamics"], forms=["rlc_segments"], seconds=seconds,
+                      heldout_seconds=seconds / 2, name="line")
+    return truth, [read_csv(truth["recordings"]["main"])], [read_csv(truth["recordings"]["heldout"])]
+
+
+def test_a_tube_beyond_the_calibrations_bound_is_scored_by_its_volume(tmp_path):
+    truth, recs, held = _case(tmp_path, 20.0)
+    robot = load_robot("arm2")
+    run, _ = _calibrated_run(robot, recs, held, lambda m: None)
+    where = truth["effects"][0]["where"]
+    c = robot.chamber_names.index((where["actuator"], where["chamber"]))
+    # the calibration alone runs into its bound on the tube's chamber
+    assert run.mods.dead_volume_scale[c] == pytest.approx(SCALE_BOUND, rel=1e-3)
+    label = f"line_dynamics@{where['actuator']}.{where['chamber']}"
+    line = next(h for h in pneumatic_hypotheses(robot) if h.label == label)
+    (scored,), _ = score_pneumatic(run.exp, run.win, run.mods, [line], run.sigma)
+    # a delay of 0 scores nothing; the volume beyond the bound does
+    assert scored.predicted_gain >= MIN_PREDICTED
+    # switched off, the line leaves the chamber what a calibration may hold
+    grown = run.mods.copy(dead_volume_scale=np.full(robot.tables.n_chambers, 2.0))
+    off = line.switched_off(grown).dead_volume_scale
+    assert off[c] == pytest.approx(SCALE_BOUND) and np.all(np.delete(off, c) == 2.0)
+
+
+@pytest.mark.slow
+def test_a_line_seen_as_volume_alone_is_named_a_line_with_its_volume(tmp_path):
+    truth, recs, held = _case(tmp_path, 60.0)
+    rep = diagnose(load_robot("arm2"), recs, held)
+    hidden = truth["effects"][0]
+    assert [(f["effect"], f["where"]) for f in rep["findings"]] == [("line_dynamics", hidden["where"])]
+    length, bore = hidden["effective"]["length_m"], hidden["effective"]["diameter_m"]
+    volume = np.pi * bore ** 2 / 4 * length
+    found = rep["findings"][0]["parameters"]["volume_m3"]["value"]
+    assert 0.5 < found / volume < 2.0
