@@ -1,14 +1,17 @@
 """The doctor on a tube between valve and chamber that shows as volume alone: a lumped line
 (three R-L-C segments) of the independent variant simulator, whose 1-3 ms of wave time is no
-delay worth the name while its volume is as large as the chamber's dead volume."""
+delay worth the name while its volume is as large as the chamber's dead volume; and on a
+chamber wall that yields, whose extra air grows with the pressure (outside the vocabulary)."""
 import numpy as np
 import pytest
 
 from identification.doctor.valve_arm.calibrate import SCALE_BOUND
+from identification.doctor.valve_arm.compliance import compliant_wall
 from identification.doctor.valve_arm.diagnose import _calibrated_run, diagnose
 from identification.doctor.valve_arm.hypotheses import pneumatic_hypotheses
-from identification.doctor.valve_arm.rules import MIN_PREDICTED
-from identification.doctor.valve_arm.screening import score_pneumatic
+from identification.doctor.valve_arm.rules import MIN_PREDICTED, Finding
+from identification.doctor.valve_arm.screening import chamber_rms, fit_pneumatic, score_pneumatic
+from identification.doctor.valve_arm.search import finding_params
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from scenarios._variantsim.cases import make_case
@@ -51,3 +54,31 @@ def test_a_line_seen_as_volume_alone_is_named_a_line_with_its_volume(tmp_path):
     volume = np.pi * bore ** 2 / 4 * length
     found = rep["findings"][0]["parameters"]["volume_m3"]["value"]
     assert 0.5 < found / volume < 2.0
+
+
+WALL_SEED = 883927898  # a compliant wall at elbow.b (outside the vocabulary)
+
+
+def _line_finding(run, robot, where):
+    label = f"line_dynamics@{where['actuator']}.{where['chamber']}"
+    line = next(h for h in pneumatic_hypotheses(robot) if h.label == label)
+    (s,), _ = score_pneumatic(run.exp, run.win, run.mods, [line], run.sigma)
+    fit_pneumatic(s, run.exp, run.fit_win, run.mods, run.sigma)
+    s.heldout_before, s.heldout_after = chamber_rms(run.held, run.win_h, run.mods), chamber_rms(run.held, run.win_h, s.mods)
+    return Finding(s, "line_dynamics", where, finding_params(s), s.heldout_gain)
+
+
+def test_a_wall_that_yields_is_not_named_a_tube(tmp_path):
+    """A chamber whose volume grows with pressure (V = V0 + C (p - p_room)) looks like a tube's
+    volume to the line's fit; the wall replays it clearly better and the place is reported
+    unexplained with the compliance (within a factor 2 of the truth), not as a line."""
+    truth = make_case(tmp_path, WALL_SEED, ["outside_vocabulary"], forms=["wall_compliance"], seconds=30.0,
+                      heldout_seconds=15.0, name="wall")
+    robot = load_robot("arm2")
+    run, _ = _calibrated_run(robot, [read_csv(truth["recordings"]["main"])], [read_csv(truth["recordings"]["heldout"])],
+                             lambda m: None)
+    hidden = truth["effects"][0]
+    entry = compliant_wall(run, _line_finding(run, robot, hidden["where"]))
+    assert entry is not None and entry["where"] == hidden["where"] and entry["suggests"] == []
+    ratio = entry["wall_compliance_m3_pa"]["value"] / hidden["effective"]["compliance_m3_pa"]
+    assert 0.5 < ratio < 2.0

@@ -1,6 +1,7 @@
 """Compiled twin of :meth:`identification.doctor.valve_arm.pneumatic.ChamberModel.step_reference`: one 1 ms step
 of paper 002 eq. 9 for a batch (W, C) of chamber sets, with the doctor's pneumatic hypotheses
-(valve leak near null, external and piston leaks, calibration scales, supply droop, heat transfer).
+(valve leak near null, external and piston leaks, calibration scales, supply droop, heat transfer;
+a compliant wall, which the check of a line's constant volume fits).
 
 The doctor replays a recording hundreds of times (calibration, every hypothesis, the held-out
 scores); in numpy each step costs ~4 ms of small-array calls, most of the doctor's time.  This
@@ -13,7 +14,8 @@ Arrays (C chambers, ordered a, b per actuator; W windows):
   underlap_width_v, external_leak_m2,
   external_leak_g, dead_m3, area_m2 (C,);  piston_leak_m2, piston_leak_g (C // 2,) (the *_g are the
   laminar forms' conductances [kg/(s Pa)], pneumatics.effects.external_leak.laminar_flow);  m_supply (W,) total supply flow of the last
-  step [kg/s] (read for the droop, then overwritten);  glob as in :mod:`pneumatics.kernel`.
+  step [kg/s] (read for the droop, then overwritten);  glob as in :mod:`pneumatics.kernel`;
+  wall (C,) a compliant wall's dV/dp [m^3/Pa] (0: rigid).
 """
 from __future__ import annotations
 
@@ -51,8 +53,9 @@ def _valve(u, row, scale_s, scale_e, leak_s, leak_e, leak_width, lap, lap_width)
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ext_g, piston_g, ps, glob, f, jac, m_s):
-    """Pressure rates f and their diagonal Jacobian jac (C,) at pressures q (C,)."""
+def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ext_g, piston_g, ps, glob, f, jac, m_s, wall):
+    """Pressure rates f and their diagonal Jacobian jac (C,) at pressures q (C,); ``wall`` (C,)
+    a compliant wall's dV/dp [m^3/Pa] (pneumatic.capacity)."""
     rt, n, room = glob[0] * glob[2], glob[3], glob[9]
     C = q.shape[0]
     m = np.empty(C)
@@ -85,8 +88,9 @@ def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ext_g, piston_g, ps, glob, f, jac,
             dm[2 * j] -= piston_g[j] * qa / room
             dm[2 * j + 1] -= piston_g[j] * qb / room
     for c in range(C):
-        f[c] = n / vol[c] * (rt * m[c] - q[c] * vdot[c])
-        jac[c] = n / vol[c] * (rt * dm[c] - vdot[c])
+        cap = vol[c] + wall[c] * (q[c] - room) + n * q[c] * wall[c]
+        f[c] = n / cap * (rt * m[c] - q[c] * vdot[c])
+        jac[c] = n / cap * (rt * dm[c] - vdot[c])
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -132,12 +136,13 @@ def _thermal(p, T, vol, vdot, a_s, a_e, ps, hA, extra, glob):
 def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2,
                leak_width_v, underlap_m2, underlap_width_v,
                external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, dead_m3, area_m2, m_supply, glob,
-               out, heat_w_k, T):
+               out, heat_w_k, T, wall):
     """One linearly implicit ROS2 step (chamber.integrate's stages, fixed dt) for every window.
 
     Chambers with a finite ``heat_w_k`` (C,) [W/K] carry their gas temperature ``T`` (W, C) [K]
     (updated in place) and follow the energy equation instead (heat_transfer), the leaks held
-    over the step at their start-of-step flows, as in ChamberModel._thermal_step."""
+    over the step at their start-of-step flows, as in ChamberModel._thermal_step (a compliant
+    ``wall`` (C,) [m^3/Pa] is not carried there: the check that uses it fits no heat transfer)."""
     W, C = p.shape
     dt, droop = glob[10], glob[12]
     a_s, a_e = np.empty(C), np.empty(C)
@@ -153,12 +158,12 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
             vol[c] = dead_m3[c] + area_m2[c] * 0.5 * (travel0[w, c] + travel1[w, c])
             vdot[c] = area_m2[c] * (travel1[w, c] - travel0[w, c]) / dt
         _rhs(p[w], vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, ps, glob,
-             f0, jac, m_s)
+             f0, jac, m_s, wall)
         for c in range(C):
             k1[c] = f0[c] / (1.0 - GAMMA * dt * jac[c])
             q1[c] = p[w, c] + dt * k1[c]
         _rhs(q1, vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, ps, glob,
-             f1, jac1, m_s1)
+             f1, jac1, m_s1, wall)
         total = 0.0
         for c in range(C):
             denom = 1.0 - GAMMA * dt * jac[c]

@@ -54,10 +54,11 @@ def locate(run: DoctorRun, flags: list) -> Located:
     pred_b, _ = replay(held, win_h, mods_without_all(mods, run.findings))
     res_base_h = pred_b - meas_h                          # (W, H, C) before the findings
     flex, flex_summary = flexible_unexplained(run)
-    unexplained += flex
+    unexplained += run.outside_chambers
+    unexplained += [u for u in flex if u["where"] not in [x["where"] for x in run.outside_chambers]]
     # the replay-RMS rule, for a chamber the flexible correction did not already report
     unexplained += [u for u in _unexplained_chambers(run, res_h, res_base_h, rms_c, rms_t, idx_h, t_h, flags)
-                    if u["where"] not in [x["where"] for x in flex]]
+                    if u["where"] not in [x["where"] for x in flex + run.outside_chambers]]
     return Located(res_h, res_base_h, rms_c, rms_t, unexplained, flex_summary)
 
 

@@ -60,6 +60,8 @@ class PneumaticMods:
     supply_droop_pa_per_kg_s: float = 0.0     # supply pressure drop per kg/s of total supply flow
     heat_w_k: np.ndarray = None               # gas-wall conductance h A [W/K]; NaN = eq. 9 (heat_transfer)
     backlash_rad: np.ndarray = None           # (n_act,) play between cylinder and link [rad] (backlash)
+    wall_compliance_m3_pa: np.ndarray = None  # dV/dp of a compliant wall [m^3/Pa]: V += C (p - p_room); not a
+                                              # family (the check of a line's constant volume, naming.py)
 
     @classmethod
     def nominal(cls, n_ch: int) -> "PneumaticMods":
@@ -205,7 +207,7 @@ class ChamberModel:
                 np.full(C, UNDERLAP_WIDTH_V) if mods.valve_underlap_width_v is None else per(mods.valve_underlap_width_v),
                 per(mods.external_leak_m2), per(mods.piston_leak_m2, C // 2),
                 per(mods.external_leak_g), per(mods.piston_leak_g, C // 2), per(self.dead), per(tab.area), np.zeros(self.W), glob,
-                np.full(C, np.nan) if mods.heat_w_k is None else per(mods.heat_w_k))
+                np.full(C, np.nan) if mods.heat_w_k is None else per(mods.heat_w_k), per(mods.wall_compliance_m3_pa))
 
     def travel(self, length):
         """Chamber travel (W, C) from actuator lengths (W, n_act)."""
@@ -219,13 +221,13 @@ class ChamberModel:
 
         Compiled (identification.doctor.valve_arm.chamber_kernel); :meth:`step_reference` is its numpy twin.
         Chambers with heat_transfer update their gas temperatures ``self.T`` (W, C) [K]."""
-        rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area, m_sup, glob, heat = self._kernel_args
+        rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area, m_sup, glob, heat, wall = self._kernel_args
         out = np.empty_like(p)
         W = p.shape[0]
         T = np.ascontiguousarray(self.T[:W], float)
         step_batch(np.ascontiguousarray(p, float), np.ascontiguousarray(u, float), np.ascontiguousarray(travel0, float),
                    np.ascontiguousarray(travel1, float), rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area,
-                   m_sup[:W], glob, out, heat, T)
+                   m_sup[:W], glob, out, heat, T, wall)
         self.T[:W] = T
         return out
 
@@ -260,7 +262,8 @@ class ChamberModel:
                 m[:, 1::2] += m_ab
                 dm[:, 0::2] -= dab_a
                 dm[:, 1::2] += dab_b
-            return n / vol * (rt * m - q * vdot), n / vol * (rt * dm - vdot), m_s
+            cap = capacity(vol, q, room, n, mods.wall_compliance_m3_pa)
+            return n / cap * (rt * m - q * vdot), n / cap * (rt * dm - vdot), m_s
 
         f0, jac, m_s = rhs(p)
         denom = 1.0 - GAMMA * FINE_DT * jac
@@ -293,6 +296,15 @@ class ChamberModel:
         p_new[:, cs] = p_th
         self.T[:, cs] = t_th
         return p_new
+
+
+def capacity(vol, p, room_pa, n, wall_compliance):
+    """The volume [m^3] that divides n (R T mdot - p dV/dt) in dp/dt: ``vol`` with a rigid wall;
+    with a compliant one (V = vol + C (p - p_room), so dV/dt carries C dp/dt) the wall's
+    volume and n p C beside it (paper 002 eq. 9 with V a function of p)."""
+    if wall_compliance is None:
+        return vol
+    return vol + wall_compliance * (p - room_pa) + n * p * wall_compliance
 
 
 #: the cylinder force [N], as a fraction of its largest (bore area x supply gauge), over which the

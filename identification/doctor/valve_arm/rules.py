@@ -108,6 +108,8 @@ class DoctorRun:
     outside: list = field(default_factory=list)
     """(joint, the library's best Finding or None, the yardstick's held-out gain): torque the
     library does not hold"""
+    outside_chambers: list = field(default_factory=list)
+    """unexplained entries the search made at chambers (a wall that yields: compliance.py)"""
     refine: list = field(default_factory=list)
     """pressure-sensor offsets the replays found, refined by the torque balance"""
     final_rfit: Fit | None = None

@@ -15,6 +15,7 @@ from .flex_check import partial_projection, suggested_candidates
 from .joint_fit import fit_effect
 from .hypotheses import angle_profile_yardstick, mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
 from .calibrate import SCALE_BOUND
+from .compliance import compliant_wall
 from .data import Experiment
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
 from .naming import friction_named, line_named
@@ -94,6 +95,15 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             run.tried.add(finding.scored.hyp.label)
             continue
         if finding.family == "line_dynamics":
+            wall = compliant_wall(run, finding)
+            if wall is not None:
+                # more air the higher the pressure: a wall that yields, not a tube's volume
+                say(f"{finding.scored.hyp.label}: a compliant wall replays the chamber better than a tube")
+                run.outside_chambers.append(wall)
+                place = set(finding.scored.hyp.chambers)
+                run.tried.update(s.hyp.label for s in scored if set(s.hyp.chambers) & place and "supply" not in s.hyp.where)
+                run.tried.add(finding.scored.hyp.label)
+                continue
             finding = line_named(run, finding)
         run.findings.append(finding)
         run.tried.add(finding.scored.hyp.label)
