@@ -47,6 +47,10 @@ def locate(run: DoctorRun, flags: list) -> Located:
             _locate_pneumatic(run, f, meas_h, res_h, idx_h, t_h)
         else:
             _locate_mechanical(run, f)
+        if f.alternative_places:
+            # the effect is at one of these places, which the sensors cannot tell apart: the
+            # probability of any one of them (the exact place the report's reader acts on)
+            f.inclusion /= len(f.alternative_places)
     unexplained = [outside_torque(run.robot, held, run.td_h, run.rfit, j, f, gain, by) for j, f, gain, by in run.outside]
     rms_c = np.sqrt(np.mean(res_h ** 2, axis=(0, 1)))
     pred_t, meas_t = replay(run.exp, run.win, mods)
