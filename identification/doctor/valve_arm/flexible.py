@@ -278,7 +278,7 @@ def paying(corrs: list) -> list:
     level = float(np.median(gains)) if chambers else 0.0
     floor = max(FLEX_FLOOR, FLEX_STANDOUT * level, robust_ceiling(gains))
     above = [c for c in chambers if c.best_group_gain >= floor]
-    gain_at = {(c.where["actuator"], c.where["chamber"]): c.best_group_gain for c in chambers}
+    gain_at = {(c.where.get("actuator"), c.where.get("chamber")): c.best_group_gain for c in chambers}
     out = [c for c in above if _stands_out_of_its_cylinder(c, gain_at, floor)]
     out += [c for c in corrs if "supply" in c.where and c.pays]
     return out
@@ -295,8 +295,8 @@ PARTNER_STANDOUT = 2.0
 def _stands_out_of_its_cylinder(c: Correction, gain_at: dict, floor: float) -> bool:
     """Whether chamber correction ``c`` (above ``floor``) is its own: its cylinder partner is
     above the floor too (both reported), or c's gain is PARTNER_STANDOUT times the partner's."""
-    a, ch = c.where["actuator"], c.where["chamber"]
-    partner = gain_at.get((a, "b" if ch == "a" else "a"))
+    a, ch = c.where.get("actuator"), c.where.get("chamber")
+    partner = gain_at.get((a, {"a": "b", "b": "a"}.get(ch))) if a is not None else None
     return partner is None or partner >= floor or c.best_group_gain >= PARTNER_STANDOUT * max(partner, 0.0)
 
 

@@ -61,7 +61,7 @@ class PneumaticMods:
     heat_w_k: np.ndarray = None               # gas-wall conductance h A [W/K]; NaN = eq. 9 (heat_transfer)
     backlash_rad: np.ndarray = None           # (n_act,) play between cylinder and link [rad] (backlash)
     wall_compliance_m3_pa: np.ndarray = None  # dV/dp of a compliant wall [m^3/Pa]: V += C (p - p_room); not a
-                                              # family (the check of a line's constant volume, naming.py)
+                                              # family (the check of a line's constant volume, compliance.py)
 
     @classmethod
     def nominal(cls, n_ch: int) -> "PneumaticMods":

@@ -1,0 +1,32 @@
+"""Which pneumatic hypotheses the doctor's search fits in full: the score test's best ones
+(worth_fitting) and, beside a leak, the other leak family at the same chamber (rivals)."""
+from types import SimpleNamespace
+
+from identification.doctor.valve_arm.search import rivals, worth_fitting
+
+
+def _scored(family, chambers, gain, params=("area",)):
+    label = f"{family}@{chambers}"
+    hyp = SimpleNamespace(family=family, chambers=list(chambers), label=label, params=list(params))
+    return SimpleNamespace(hyp=hyp, predicted_gain=gain)
+
+
+def test_a_leak_is_fitted_beside_the_other_leak_family_at_its_chamber():
+    """An external leak the calibration half took up scores low (0.02 beside the valve leak's
+    0.07); it is fitted anyway, once (its best-scored form), and only at the valve leak's chamber."""
+    valve = _scored("valve_leak", [2], 0.07, ("supply", "exhaust"))
+    lag = _scored("valve_lag", [2], 0.11)
+    scored = [lag, valve, _scored("external_leak", [2], 0.02), _scored("external_leak", [3], 0.015),
+              _scored("valve_leak", [2], 0.001)]
+    top = worth_fitting([s for s in scored if s.predicted_gain >= 0.02])
+    assert scored[2] not in top
+    extra = rivals(top, scored)
+    assert extra == [scored[2]]
+
+
+def test_rivals_add_nothing_already_fitted_or_unrelated():
+    ext = _scored("external_leak", [0], 0.3)
+    valve = _scored("valve_leak", [0], 0.25)
+    assert rivals([ext, valve], [ext, valve]) == []
+    lag = _scored("valve_lag", [1], 0.2)
+    assert rivals([lag], [lag, _scored("external_leak", [1], 0.1)]) == []
