@@ -150,7 +150,10 @@ def test_every_effect_field_of_the_doctors_chamber_model_is_filled_by_a_family(a
         mods = fam.apply_to_mods(nominal, arm2, place, params)
         filled |= {f.name for f in dataclasses.fields(mods) if not _same(getattr(mods, f.name), getattr(nominal, f.name))}
     calibration = {"supply_scale", "exhaust_scale", "dead_volume_scale", "valve_leak_width_v"}
-    assert filled == {f.name for f in dataclasses.fields(PneumaticMods)} - calibration
+    # outside the vocabulary on purpose: a wall that yields, fitted only to tell it from a
+    # line's volume (identification/doctor/valve_arm/compliance.py), never a finding
+    outside = {"wall_compliance_m3_pa"}
+    assert filled == {f.name for f in dataclasses.fields(PneumaticMods)} - calibration - outside
 
 
 def test_a_hook_a_family_does_not_have_says_so():
