@@ -85,9 +85,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             # named; the place is reported unexplained after the search (flex_check), and no
             # other family is tried there (as search._keep_mechanical does at a joint)
             say(f"{finding.scored.hyp.label}: a partial projection of what the flexible correction there takes up")
-            place = set(finding.scored.hyp.chambers)
-            run.tried.update(s.hyp.label for s in scored if set(s.hyp.chambers) & place and "supply" not in s.hyp.where)
-            run.tried.add(finding.scored.hyp.label)
+            close_place(run, finding, scored)
             continue
         if finding.family == "pressure_sensor_offset" and not offset_seen_by_torque_balance(run, finding):
             # a sensor offset changes what is read, not the force: one the torque balance
@@ -101,14 +99,20 @@ def search_pneumatic(run: DoctorRun, say) -> None:
                 # more air the higher the pressure: a wall that yields, not a tube's volume
                 say(f"{finding.scored.hyp.label}: a compliant wall replays the chamber better than a tube")
                 run.outside_chambers.append(wall)
-                place = set(finding.scored.hyp.chambers)
-                run.tried.update(s.hyp.label for s in scored if set(s.hyp.chambers) & place and "supply" not in s.hyp.where)
-                run.tried.add(finding.scored.hyp.label)
+                close_place(run, finding, scored)
                 continue
             finding = line_named(run, finding)
         run.findings.append(finding)
         run.tried.add(finding.scored.hyp.label)
         run.mods = finding.scored.mods
+
+
+def close_place(run: DoctorRun, finding: Finding, scored: list) -> None:
+    """No family is tried again at ``finding``'s chambers (the supply's hypotheses aside): what
+    the place lacks is reported unexplained after the search."""
+    place = set(finding.scored.hyp.chambers)
+    run.tried.update(s.hyp.label for s in scored if set(s.hyp.chambers) & place and "supply" not in s.hyp.where)
+    run.tried.add(finding.scored.hyp.label)
 
 
 def offset_seen_by_torque_balance(run: DoctorRun, finding: Finding) -> bool:
@@ -263,8 +267,7 @@ def tube_volume_significant(s: Scored) -> bool:
     line of 0.2-1 m whose wave time is 1-3 ms)."""
     if not s.hyp.adds_volume:
         return False
-    w = s.hyp.where
-    i = s.fit.names.index(f"dead_volume_scale.{w['actuator']}.{w['chamber']}")
+    i = dead_volume_index(s)
     se = float(s.fit.stderr[i])
     return bool(np.isfinite(se) and se > 0 and s.fit.values[i] - np.log(SCALE_BOUND) >= MIN_T * se)
 
@@ -290,6 +293,12 @@ def rivals(top: list, scored: list) -> list:
                 have.add(key)
                 out.append(best)
     return out
+
+
+def dead_volume_index(s: Scored) -> int:
+    """Where the fit of a hypothesis at one chamber holds that chamber's log dead-volume scale."""
+    w = s.hyp.where
+    return s.fit.names.index(f"dead_volume_scale.{w['actuator']}.{w['chamber']}")
 
 
 def worth_fitting(cands: list) -> list:
@@ -415,8 +424,7 @@ def finding_params(s: Scored) -> dict:
     out = {n: {"value": float(v), "stderr": float(e)} for n, v, e in zip(names, s.fit.values[-k:], s.fit.stderr[-k:])}
     out.update(s.hyp.fixed)
     if s.hyp.adds_volume:  # the tube's volume: how much the chamber's dead volume grew past the model's
-        w = s.hyp.where
-        i = s.fit.names.index(f"dead_volume_scale.{w['actuator']}.{w['chamber']}")
+        i = dead_volume_index(s)
         scale, v_nominal = float(np.exp(s.fit.values[i])), s.hyp.adds_volume
         out["volume_m3"] = {"value": max(scale - 1.0, 0.0) * v_nominal, "stderr": scale * float(s.fit.stderr[i]) * v_nominal}
     return out
