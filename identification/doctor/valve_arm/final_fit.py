@@ -6,7 +6,7 @@ import numpy as np
 
 from .calibrate import chamber_names as calibration_names
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
-from .rules import MIN_T, DoctorRun
+from .rules import MIN_T, DoctorRun, passes_keep_rule
 from .screening import stack_terms
 from .search import apply_offset, corrected, mech_attr, offset_of_term
 
@@ -94,12 +94,6 @@ def scale_stderr(scales: dict, stderr: dict) -> dict:
                                                        "dead_volume_scale") else float(e)
     return out
 
-
-def passes_keep_rule(values, stderrs) -> bool:
-    """Every value >= MIN_T standard errors from 0, with a finite positive error (a parameter at
-    a bound has none: the gain came from what was refitted with it)."""
-    values, stderrs = np.asarray(values, float), np.asarray(stderrs, float)
-    return bool(np.all(np.isfinite(stderrs)) and np.all(stderrs > 0) and np.all(np.abs(values) >= MIN_T * stderrs))
 
 
 def final_terms(kept_mech, refine, values, stderrs, replay_offset) -> list:

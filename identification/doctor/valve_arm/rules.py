@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 
 from identification.base.lsq import Fit
 from pneumatics.robot import Robot
@@ -122,3 +124,10 @@ class DoctorRun:
     @property
     def n_chambers(self) -> int:
         return self.robot.tables.n_chambers
+
+
+def passes_keep_rule(values, stderrs) -> bool:
+    """Every value >= MIN_T standard errors from 0, with a finite positive error (a parameter at
+    a bound has none: the gain came from what was refitted with it)."""
+    values, stderrs = np.asarray(values, float), np.asarray(stderrs, float)
+    return bool(np.all(np.isfinite(stderrs)) and np.all(stderrs > 0) and np.all(np.abs(values) >= MIN_T * stderrs))

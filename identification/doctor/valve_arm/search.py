@@ -36,6 +36,7 @@ from .rules import (
     YARDSTICK_SHARE,
     DoctorRun,
     Finding,
+    passes_keep_rule,
 )
 from .screening import (
     Scored,
@@ -231,7 +232,8 @@ def accept_best(candidates: list, keep: float) -> Finding | None:
             continue  # the refitted calibration paid, not the effect
         k = len(best.hyp.params)
         values, ses = best.fit.values[-k:], best.fit.stderr[-k:]
-        if not (significant(values, ses, best.hyp.keep_mask()) or tube_volume_significant(best)):
+        m = best.hyp.keep_mask()
+        if not (passes_keep_rule(values[m], ses[m]) or tube_volume_significant(best)):
             # a parameter it needs is not significant (or stuck at a bound, where least squares
             # gives no error bar: then the gain came from the calibration refitted with it)
             continue
@@ -252,12 +254,6 @@ def accept_best(candidates: list, keep: float) -> Finding | None:
             alts.append(richer.hyp.family)
         return Finding(best, best.hyp.family, best.hyp.where, finding_params(best), best.heldout_gain, alts)
     return None
-
-
-def significant(values, ses, mask) -> bool:
-    """Whether the parameters ``mask`` selects are each MIN_T standard errors from 0."""
-    v, e = values[mask], ses[mask]
-    return bool(np.all(np.isfinite(e)) and np.all(e > 0) and np.all(np.abs(v) >= MIN_T * e))
 
 
 def tube_volume_significant(s: Scored) -> bool:
