@@ -43,7 +43,7 @@ def test_groups_are_disjoint_and_few_on_the_humanoid():
 
 def test_effect_fits_at_one_joint_equal_the_whole_fit():
     from identification.doctor.valve_arm.hypotheses import mechanical_hypotheses
-    from identification.doctor.valve_arm.joint_fit import confined_joint, fit_effect
+    from identification.doctor.valve_arm.joint_fit import coupled_joints, fit_at_joints, fit_effect
     from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
     from identification.doctor.valve_arm.screening import stack_terms, torque_rms
     from identification.doctor.valve_arm.search import crossval_torque
@@ -58,8 +58,11 @@ def test_effect_fits_at_one_joint_equal_the_whole_fit():
     for h in hyps:
         extra, names, bounds = stack_terms(None, h.regressor(exp, td), h)
         whole, local = fit_rigid_body(td, extra, names, bounds), fit_effect(td, extra, names, bounds, base, 0)
-        confined += confined_joint(extra, td.valid) is not None
+        confined += coupled_joints(extra, td.valid, 0).size == 1
         assert np.allclose(whole.values, local.values, rtol=0, atol=1e-9), h.label
+        # the same split over a set of joints (on arm2 the set of both is the whole fit)
+        both = fit_at_joints(td, extra, names, bounds, base, np.arange(2))
+        assert np.allclose(whole.values, both.values, rtol=0, atol=1e-9) and abs(whole.rss - both.rss) <= 1e-9 * whole.rss
         assert abs(whole.rss - local.rss) <= 1e-9 * whole.rss
         k = len(h.params)
         # 1e-7: a warm-up drift of 3 s is nearly collinear with the constant offset beside it
@@ -75,6 +78,21 @@ def test_effect_fits_at_one_joint_equal_the_whole_fit():
             after = after + torque_rms(test_on, fit_rigid_body(fit_on, extra, names, bounds), extra, block) ** 2
         assert np.allclose(s.heldout_after, np.sqrt(after / 2), rtol=1e-9) and np.allclose(s.heldout_before, np.sqrt(before / 2))
     assert confined >= len(hyps) // 2  # most act at one joint: the split is what is being tested
+
+
+def test_coupled_joints_follow_the_kept_terms():
+    from identification.doctor.valve_arm.joint_fit import coupled_joints
+
+    extra = np.zeros((5, 4, 3))
+    valid = np.ones(5, bool)
+    extra[:, 1:3, 0] = 1.0    # a kept term acting at joints 1 and 2 (an angle offset's gravity torque)
+    extra[:, 3, 1] = 1.0      # a kept term at joint 3 alone
+    extra[:, 2, 2] = 1.0      # the effect, at joint 2
+    assert coupled_joints(extra, valid, 2).tolist() == [1, 2]
+    extra[:, :, 2] = 0.0      # an effect the data never reach changes joint 0's fit alone
+    assert coupled_joints(extra, valid, 2).tolist() == [0]
+    extra[:, 3, 2] = 1.0
+    assert coupled_joints(extra, valid, 2).tolist() == [3]
 
 
 def test_end_stop_grid_two_fold_rss_equals_whole_fits():

@@ -6,8 +6,9 @@ the kept effects' terms over every joint's equations (the inertias held at the c
 Those free columns act each on one joint's equations (a joint's damping on its own dof, a
 friction or a bumper on its own joint), so the least squares splits into one independent
 problem per joint, bounds and all: an effect confined to joint j changes only joint j's part of
-the fit.  :func:`fit_at_joint` solves that part alone and takes every other joint's from the base
-fit, the same solution as the whole fit (tests/test_doctor_scaling.py) at 1/J of its cost.
+the fit.  :func:`fit_at_joints` solves that part alone (an angle offset's: the joints its gravity torque
+reaches) and takes every other joint's from the base fit, the same solution as the whole fit
+(tests/test_doctor_scaling.py) at a fraction of its cost.
 """
 from __future__ import annotations
 
@@ -19,65 +20,76 @@ from identification.base.lsq import Fit, covariance
 from .mechanics import TorqueData, fit_rigid_body
 
 
-def confined_joint(reg: np.ndarray, valid: np.ndarray) -> int | None:
-    """The one joint whose equations the regressors ``reg`` (N, J, E) act on at the ``valid``
-    samples, or None (none, or several: an angle offset's gravity torque reaches the joints
-    below it)."""
-    touched = np.flatnonzero(np.any(reg[valid] != 0, axis=(0, 2)))
-    return int(touched[0]) if touched.size == 1 else None
+#: a column's entries at a joint below this fraction of its largest count as zero (coupled_joints)
+COUPLING_FLOOR = 1e-8
+
+
+def coupled_joints(extra: np.ndarray, valid: np.ndarray, base_cols: int) -> np.ndarray:
+    """The joints whose part of the fit an effect changes: those its own columns (``extra``'s
+    after the first ``base_cols``, the kept terms) act on at the ``valid`` samples, joined by
+    every joint a kept term couples to one of them; joint 0 where the effect never acts (its
+    columns are zero and it changes no joint's fit)."""
+    size = np.max(np.abs(extra[valid]), axis=0)              # (J, E)
+    # which joints each column acts on: an angle offset's regressor, a difference of inverse
+    # dynamics, leaves ~1e-10 of its size at joints it cannot reach (rounding); those are not
+    # coupled, and leaving them out moves the fit by as little
+    reach = size > COUPLING_FLOOR * np.max(size, axis=0, keepdims=True)
+    joints = reach[:, base_cols:].any(axis=1)
+    if not joints.any():
+        joints[0] = True
+    kept = reach[:, :base_cols]
+    while True:
+        grown = joints | kept[:, kept[joints].any(axis=0)].any(axis=1)
+        if np.array_equal(grown, joints):
+            return np.flatnonzero(joints)
+        joints = grown
 
 
 def fit_effect(td: TorqueData, extra: np.ndarray, names: list, bounds, base: Fit, base_cols: int) -> Fit:
-    """``fit_rigid_body(td, extra, names, bounds)`` where the effect's own columns (the last
-    ones after ``base_cols`` extra columns of kept terms) act at one joint and no kept term
-    spans that joint and another: solved at that joint alone (:func:`fit_at_joint`); otherwise the
-    whole fit.  ``base`` is the fit without the effect (``fit_rigid_body(td, *base_extra)``)."""
-    v = td.valid
-    effect = extra[:, :, base_cols:]
-    j = confined_joint(effect, v)
-    if j is None and not np.any(effect[v]):
-        # the effect never acts on these samples (a stop the data do not reach): its columns
-        # are zero and it changes no joint's fit
-        j = 0
-    if j is None:
+    """``fit_rigid_body(td, extra, names, bounds)``, solved at the joints the effect's own
+    columns (the last ones after ``base_cols`` extra columns of kept terms) change
+    (:func:`coupled_joints`, :func:`fit_at_joints`) when those are not all of them.  ``base``
+    is the fit without the effect (``fit_rigid_body(td, *base_extra)``)."""
+    joints = coupled_joints(extra, td.valid, base_cols)
+    if joints.size == td.residual.shape[1]:
         return fit_rigid_body(td, extra, names, bounds)
-    kept = extra[v][:, :, :base_cols]
-    shared = np.any(kept != 0, axis=0)                      # (J, base_cols): which joints each kept term reaches
-    if np.any(shared[j] & (shared.sum(axis=0) > 1)):
-        return fit_rigid_body(td, extra, names, bounds)
-    return fit_at_joint(td, extra, names, bounds, base, j)
+    return fit_at_joints(td, extra, names, bounds, base, joints)
 
 
-def fit_at_joint(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, base: Fit, j: int) -> Fit:
+def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, base: Fit,
+                  joints: np.ndarray) -> Fit:
     """The whole torque-balance fit with ``extra`` (N, J, E) (named ``extra_names``, bounded by
-    ``bounds``) when only joint j's block of free columns changes from ``base`` (a fit over the
-    same rows with the first columns of ``extra``)."""
+    ``bounds``) when only the blocks of free columns of ``joints`` change from ``base`` (a fit
+    over the same rows with the first columns of ``extra``; no free column couples one of
+    ``joints`` to another joint)."""
     cal = td.calibration
     names = list(td.names) + list(extra_names)
     v = td.valid
     P, E = len(td.names), extra.shape[2]
-    J = td.residual.shape[1]
+    J, S = td.residual.shape[1], len(joints)
     lo, hi = np.concatenate([td.lower, bounds[0]]), np.concatenate([td.upper, bounds[1]])
     # the same row scaling as fit_rigid_body (mechanics._scaled): each joint's residual s.d.
     y_all = td.residual[v]
-    scale = max(float(np.std(y_all[:, j])), 1e-9)
-    A = np.concatenate([td.regressors[v][:, j, :], extra[v][:, j, :]], axis=1) / scale     # (M, P + E)
-    y = y_all[:, j] / scale
+    scale = np.maximum(np.std(y_all[:, joints], axis=0), 1e-9)
+    # the joints' rows sliced before the valid samples: the whole (N, J, P) array is not copied
+    A = (np.concatenate([td.regressors[:, joints][v], extra[:, joints][v]], axis=2)
+         / scale[None, :, None]).reshape(-1, P + E)                                 # (M S, P + E)
+    y = (y_all[:, joints] / scale).ravel()
     held = np.concatenate([cal.values, np.zeros(E)])
     free = np.array([k >= P or (n.startswith("damping_scale.") and n not in td.fixed) for k, n in enumerate(names)])
-    # the free columns acting at joint j, and the effect's own even where they are zero: least
-    # squares leaves a column without data at a start of its own choosing, as the whole fit does
+    # the free columns acting at these joints, and the effect's own even where they are zero:
+    # least squares leaves a column without data at a start of its own choosing, as the whole fit does
     block = free & (np.any(A != 0, axis=0) | (np.arange(len(names)) >= len(base.values)))
     y_f = y - A[:, ~free] @ held[~free]
     x = np.empty(len(names))
     x[: len(base.values)] = base.values                      # every other joint's part, as fitted
     x[len(base.values):] = 0.0
     x[block] = lsq_linear(A[:, block], y_f, bounds=(lo[block], hi[block])).x if block.any() else x[block]
-    res_j = y_f - A[:, block] @ x[block]
+    res = (y_f - A[:, block] @ x[block]).reshape(-1, S)
     residual = base.residual.reshape(-1, J).copy()
-    old_j = residual[:, j].copy()
-    residual[:, j] = res_j
-    rss = base.rss - float(old_j @ old_j) + float(res_j @ res_j)
+    old = residual[:, joints]
+    residual[:, joints] = res
+    rss = base.rss - float(np.sum(old ** 2)) + float(np.sum(res ** 2))
     se = np.full(len(names), np.nan)
     se[: len(base.stderr)] = base.stderr
     n_free = int(free.sum())
