@@ -193,11 +193,12 @@ def stack_terms(base_extra, reg, h):
 def torque_rms(td, fit, extra=None, block: int = 1):
     """Per-joint RMS (J,) of the torque residual on valid samples after the fitted model; with
     ``block`` > 1, of its means over consecutive blocks of that many samples."""
-    v = td.valid
-    A = td.regressors[v]
+    P = td.regressors.shape[2]
+    # predicted on every sample, then the valid ones taken: no copy of the (N, J, P) regressors
+    pred = np.einsum("njp,p->nj", td.regressors, fit.values[:P])
     if extra is not None:
-        A = np.concatenate([A, extra[v]], axis=2)
-    res = td.residual[v] - np.einsum("njp,p->nj", A, fit.values)
+        pred = pred + np.einsum("nje,e->nj", extra, fit.values[P:])
+    res = (td.residual - pred)[td.valid]
     if block > 1:
         n = res.shape[0] // block
         res = res[: n * block].reshape(n, block, -1).mean(axis=1)
