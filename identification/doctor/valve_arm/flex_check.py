@@ -10,7 +10,8 @@ import numpy as np
 
 from identification.base.statistics import locate_regime, windows
 
-from .flexible import corrections, paying, summary, supply_in_time
+from .flexible import corrections, paying, summary
+from .supply_time import supply_in_time, supply_ripple
 from .regimes import chamber_regimes
 from .rules import MECH_BLOCK_S, DoctorRun
 
@@ -74,10 +75,16 @@ def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
                          + ("" if supply else f", carried by {' and '.join(depends)}")
                          + (f"; no library effect ({', '.join(c.suggests)}) took it up" if c.suggests
                             else "; no family of the library acts through these inputs") + also)})
-    in_time = supply_in_time(tr, ho, run.exp.rate_hz, held.rate_hz)
     diagnostics = summary(corrs)
-    if in_time is not None:
-        diagnostics["supply"]["in_time"] = {"train_gain": in_time.train_gain, "heldout_gain": in_time.heldout_gain}
+    # the supply in time: a step or a receiver's cycles first (knots), else a pulsation
+    checks = {"in_time": supply_in_time(tr, ho, run.exp.rate_hz, held.rate_hz),
+              "ripple": supply_ripple(tr, ho, run.exp.rate_hz, held.rate_hz, block_samples(held))}
+    for key, in_time in checks.items():
+        if in_time is None:
+            continue
+        diagnostics["supply"][key] = {"train_gain": in_time.train_gain, "heldout_gain": in_time.heldout_gain}
+        if in_time.frequency_hz is not None:
+            diagnostics["supply"][key]["frequency_hz"] = in_time.frequency_hz
         if in_time.pays and not any("supply" in u["where"] for u in out) \
                 and not any(f.family == "supply_droop" for f in run.findings):
             out.append(_supply_in_time_entry(in_time, t_b))
@@ -86,13 +93,16 @@ def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
 
 def _supply_in_time_entry(in_time, t_b) -> dict:
     """The unexplained entry of a supply pressure that changes in time, shared by all chambers
-    (flexible.supply_in_time), which no library effect models: the supply_droop family moves
+    (supply_time: a step, a receiver's cycles, a pulsation), which no library effect models: the supply_droop family moves
     the supply pressure with the flow the robot draws."""
     fitted = np.abs(in_time.fitted_h).sum(axis=1)
     share = min(in_time.train_gain, in_time.heldout_gain)
-    return {"where": {"supply": "all"}, "regime": "in time (not with the flow drawn)", "share_of_residual": share,
-            "residual": "supply", "depends_on": ["time"], "suggests": [], "windows": windows(t_b, fitted),
-            "evidence": (f"a supply pressure that changes in time, common to all chambers, fitted to half of the "
+    f = in_time.frequency_hz
+    how = "changes in time" if f is None else f"oscillates at {f:.2f} Hz"
+    return {"where": {"supply": "all"}, "share_of_residual": share, "residual": "supply",
+            "regime": "in time (not with the flow drawn)" if f is None else f"periodic in time ({f:.2f} Hz)",
+            "depends_on": ["time"], "suggests": [], "windows": windows(t_b, fitted),
+            "evidence": (f"a supply pressure that {how}, common to all chambers, fitted to half of the "
                          f"actuators predicts {100 * share:.0f} % of the other half's mass-flow equation error "
                          f"(training and held-out recording each); it does not follow the flow the robot draws "
                          f"(supply_droop), and no library effect takes it up")}
