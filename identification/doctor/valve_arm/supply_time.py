@@ -77,7 +77,8 @@ def supply_ripple(tr: FlowBlocks, ho: FlowBlocks, rate_tr: float, rate_ho: float
     top = RIPPLE_CYCLES_PER_BLOCK * rate_tr / block
     grid = np.arange(RIPPLE_LOWEST_HZ, top, RIPPLE_STEP_HZ)
     t_tr, t_ho = tr.sample / rate_tr, ho.sample / rate_ho
-    gains = [_cross_actuator_gain(tr, _sine(t_tr, f))[0] for f in grid]
+    split = _split(tr)
+    gains = [_cross_actuator_gain(tr, _sine(t_tr, f), split)[0] for f in grid]
     k = int(np.argmax(gains))
     g_ho, pred = _cross_actuator_gain(ho, _sine(t_ho, grid[k]))
     return SupplyInTime(float(gains[k]), g_ho, pred, float(grid[k]))
@@ -98,24 +99,32 @@ def _sine(t: np.ndarray, f_hz: float) -> np.ndarray:
     return np.column_stack([np.sin(2 * np.pi * f_hz * t), np.cos(2 * np.pi * f_hz * t)])
 
 
-def _cross_actuator_gain(b: FlowBlocks, basis: np.ndarray) -> tuple[float, np.ndarray]:
+def _cross_actuator_gain(b: FlowBlocks, basis: np.ndarray, split: dict | None = None) -> tuple[float, np.ndarray]:
     """(gain, prediction (B, C)) of a supply pressure error ``basis`` (B, K) @ beta, acting on
     each chamber through its supply sensitivity, fitted to half of the actuators' chambers and
-    predicting the other half's (two folds); the gain is over all chambers, Huber-weighted."""
+    predicting the other half's (two folds); the gain is over all chambers, Huber-weighted.
+    ``split``: :func:`_split` of ``b``, when many bases are tried on the same blocks."""
+    split = _split(b) if split is None else split
+    pred = np.zeros_like(b.error)
+    for fit, test in split["folds"]:
+        _, p = ridge_gain(fit["s"][:, None] * basis[fit["row"]], fit["y"],
+                          test["s"][:, None] * basis[test["row"]], test["y"], fit["w"], test["w"])
+        pred[:, test["chambers"]] = p.reshape(len(test["chambers"]), -1).T
+    w = split["w"]
+    den = float(np.sum((b.error * w) ** 2))
+    return (1.0 - float(np.sum(((b.error - pred) * w) ** 2)) / den if den > 0 else 0.0), pred
+
+
+def _split(b: FlowBlocks) -> dict:
+    """The blocks' Huber weights (B, C) and the two folds [(fit, test)] of their chambers by
+    their actuator's parity (chambers a, b of actuator j: j's parity), each side as rows stacked
+    chamber after chamber: the chambers, each row's block, supply sensitivity, error and weight."""
     C = b.error.shape[1]
     rms = chamber_scales(b.error)
     w = huber_weights(b.error, rms) / rms
-    fold = (np.arange(C) // 2) % 2          # chambers a, b of actuator j: j's parity
-    pred = np.zeros_like(b.error)
-    for k in (0, 1):
-        fit, test = np.nonzero(fold != k)[0], np.nonzero(fold == k)[0]
+    fold = (np.arange(C) // 2) % 2
 
-        def rows(cs):
-            X = np.concatenate([b.supply_sensitivity[:, c, None] * basis for c in cs])
-            return X, np.concatenate([b.error[:, c] for c in cs]), np.concatenate([w[:, c] for c in cs])
-        X, y, wy = rows(fit)
-        Xt, yt, wt = rows(test)
-        _, p = ridge_gain(X, y, Xt, yt, wy, wt)
-        pred[:, test] = p.reshape(len(test), -1).T
-    den = float(np.sum((b.error * w) ** 2))
-    return (1.0 - float(np.sum(((b.error - pred) * w) ** 2)) / den if den > 0 else 0.0), pred
+    def rows(cs):
+        return {"chambers": cs, "row": np.tile(np.arange(b.error.shape[0]), len(cs)),
+                "s": b.supply_sensitivity[:, cs].T.ravel(), "y": b.error[:, cs].T.ravel(), "w": w[:, cs].T.ravel()}
+    return {"w": w, "folds": [(rows(np.nonzero(fold != k)[0]), rows(np.nonzero(fold == k)[0])) for k in (0, 1)]}
