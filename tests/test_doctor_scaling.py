@@ -80,6 +80,32 @@ def test_effect_fits_at_one_joint_equal_the_whole_fit():
     assert confined >= len(hyps) // 2  # most act at one joint: the split is what is being tested
 
 
+def test_a_kept_terms_rounding_at_another_joint_neither_couples_nor_moves_it():
+    """A kept term acting at the shoulder that leaves rounding (1e-12 of its size) at the elbow,
+    and an effect at the elbow: the elbow alone is refitted, the kept term keeps its value (a
+    refit from its rounding alone would make it anything), as the whole fit has it."""
+    from identification.doctor.valve_arm.hypotheses import mechanical_hypotheses
+    from identification.doctor.valve_arm.joint_fit import coupled_joints, fit_effect
+    from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
+    from identification.doctor.valve_arm.screening import stack_terms
+
+    robot = load_robot("arm2")
+    exp = prepare(robot, read_csv(SAMPLE).slice(0, 30))
+    td = torque_data(exp)
+    fit_rigid_body(td)
+    hyps = {h.label + str(len(h.params)): h for h in mechanical_hypotheses(robot)}
+    kept_h, effect_h = hyps["pressure_sensor_offset@shoulder.a1"], hyps["viscous_friction@elbow1"]
+    kept = kept_h.regressor(exp, td).copy()
+    kept[:, 1, 0] = 1e-12 * np.abs(kept[:, 0, 0]).max() * np.sin(np.arange(kept.shape[0]))
+    base_extra = stack_terms(None, kept, kept_h)
+    base = fit_rigid_body(td, *base_extra)
+    extra, names, bounds = stack_terms(base_extra, effect_h.regressor(exp, td), effect_h)
+    assert coupled_joints(extra, td.valid, 1).tolist() == [1]
+    whole, local = fit_rigid_body(td, extra, names, bounds), fit_effect(td, extra, names, bounds, base, 1)
+    assert np.allclose(whole.values, local.values, rtol=1e-6, atol=1e-9)
+    assert abs(whole.rss - local.rss) <= 1e-8 * whole.rss
+
+
 def test_coupled_joints_follow_the_kept_terms():
     from identification.doctor.valve_arm.joint_fit import coupled_joints
 

@@ -24,16 +24,21 @@ from .mechanics import TorqueData, fit_rigid_body
 COUPLING_FLOOR = 1e-8
 
 
+def column_reach(extra: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """(J, E): which joints each column of ``extra`` (N, J, E) acts on at the ``valid`` samples.
+    An angle offset's regressor, a difference of inverse dynamics, leaves ~1e-10 of its size at
+    joints it cannot reach (rounding): those are not reached, and leaving them out moves a fit
+    by as little."""
+    size = np.max(np.abs(extra[valid]), axis=0)
+    return size > COUPLING_FLOOR * np.max(size, axis=0, keepdims=True)
+
+
 def coupled_joints(extra: np.ndarray, valid: np.ndarray, base_cols: int) -> np.ndarray:
     """The joints whose part of the fit an effect changes: those its own columns (``extra``'s
     after the first ``base_cols``, the kept terms) act on at the ``valid`` samples, joined by
     every joint a kept term couples to one of them; joint 0 where the effect never acts (its
     columns are zero and it changes no joint's fit)."""
-    size = np.max(np.abs(extra[valid]), axis=0)              # (J, E)
-    # which joints each column acts on: an angle offset's regressor, a difference of inverse
-    # dynamics, leaves ~1e-10 of its size at joints it cannot reach (rounding); those are not
-    # coupled, and leaving them out moves the fit by as little
-    reach = size > COUPLING_FLOOR * np.max(size, axis=0, keepdims=True)
+    reach = column_reach(extra, valid)
     joints = reach[:, base_cols:].any(axis=1)
     if not joints.any():
         joints[0] = True
@@ -77,13 +82,15 @@ def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, 
     y = (y_all[:, joints] / scale).ravel()
     held = np.concatenate([cal.values, np.zeros(E)])
     free = np.array([k >= P or (n.startswith("damping_scale.") and n not in td.fixed) for k, n in enumerate(names)])
-    # the free columns acting at these joints, and the effect's own even where they are zero:
-    # least squares leaves a column without data at a start of its own choosing, as the whole fit does
-    block = free & (np.any(A != 0, axis=0) | (np.arange(len(names)) >= len(base.values)))
-    y_f = y - A[:, ~free] @ held[~free]
+    # the free columns acting at these joints (a kept term's rounding there does not count: it
+    # stays at its base value), and the effect's own even where they are zero: least squares
+    # leaves a column without data at a start of its own choosing, as the whole fit does
+    acts = np.concatenate([np.any(A[:, :P] != 0, axis=0), column_reach(extra, v)[joints].any(axis=0)])
+    block = free & (acts | (np.arange(len(names)) >= len(base.values)))
     x = np.empty(len(names))
     x[: len(base.values)] = base.values                      # every other joint's part, as fitted
     x[len(base.values):] = 0.0
+    y_f = y - A[:, ~block] @ np.where(free, x, held)[~block]
     x[block] = lsq_linear(A[:, block], y_f, bounds=(lo[block], hi[block])).x if block.any() else x[block]
     res = (y_f - A[:, block] @ x[block]).reshape(-1, S)
     residual = base.residual.reshape(-1, J).copy()
