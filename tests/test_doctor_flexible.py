@@ -8,7 +8,8 @@ import pytest
 
 from identification.doctor.valve_arm.calibrate import fit_chambers, pressure_sigma
 from identification.doctor.valve_arm.data import prepare
-from identification.doctor.valve_arm.flexible import FLEX_FLOOR, SUPPLY_FLOOR, chamber_correction, paying, supply_correction
+from identification.doctor.valve_arm.flexible import (FLEX_FLOOR, SUPPLY_FLOOR, chamber_correction, paying,
+                                                      supply_correction)
 from identification.doctor.valve_arm.supply_time import SUPPLY_TIME_FLOOR, supply_in_time, supply_ripple
 from identification.doctor.valve_arm.flow_error import flow_blocks
 from identification.doctor.valve_arm.pneumatic import PneumaticMods, Windows

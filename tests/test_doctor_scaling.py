@@ -62,7 +62,8 @@ def test_effect_fits_at_one_joint_equal_the_whole_fit():
         assert np.allclose(whole.values, local.values, rtol=0, atol=1e-9), h.label
         # the same split over a set of joints (on arm2 the set of both is the whole fit)
         both = fit_at_joints(td, extra, names, bounds, base, np.arange(2))
-        assert np.allclose(whole.values, both.values, rtol=0, atol=1e-9) and abs(whole.rss - both.rss) <= 1e-9 * whole.rss
+        assert np.allclose(whole.values, both.values, rtol=0, atol=1e-9)
+        assert abs(whole.rss - both.rss) <= 1e-9 * whole.rss
         assert abs(whole.rss - local.rss) <= 1e-9 * whole.rss
         k = len(h.params)
         # 1e-7: a warm-up drift of 3 s is nearly collinear with the constant offset beside it

@@ -79,22 +79,22 @@ def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
     # the supply in time: a step or a receiver's cycles first (knots), else a pulsation
     checks = {"in_time": supply_in_time(tr, ho, run.exp.rate_hz, held.rate_hz),
               "ripple": supply_ripple(tr, ho, run.exp.rate_hz, held.rate_hz, block_samples(held))}
-    for key, in_time in checks.items():
-        if in_time is None:
+    for key, found in checks.items():
+        if found is None:
             continue
-        diagnostics["supply"][key] = {"train_gain": in_time.train_gain, "heldout_gain": in_time.heldout_gain}
-        if in_time.frequency_hz is not None:
-            diagnostics["supply"][key]["frequency_hz"] = in_time.frequency_hz
-        if in_time.pays and not any("supply" in u["where"] for u in out) \
+        diagnostics["supply"][key] = {"train_gain": found.train_gain, "heldout_gain": found.heldout_gain}
+        if found.frequency_hz is not None:
+            diagnostics["supply"][key]["frequency_hz"] = found.frequency_hz
+        if found.pays and not any("supply" in u["where"] for u in out) \
                 and not any(f.family == "supply_droop" for f in run.findings):
-            out.append(_supply_in_time_entry(in_time, t_b))
+            out.append(_supply_in_time_entry(found, t_b))
     return out, diagnostics
 
 
 def _supply_in_time_entry(in_time, t_b) -> dict:
     """The unexplained entry of a supply pressure that changes in time, shared by all chambers
-    (supply_time: a step, a receiver's cycles, a pulsation), which no library effect models: the supply_droop family moves
-    the supply pressure with the flow the robot draws."""
+    (supply_time: a step, a receiver's cycles, a pulsation), which no library effect models:
+    the supply_droop family moves the supply pressure with the flow the robot draws."""
     fitted = np.abs(in_time.fitted_h).sum(axis=1)
     share = min(in_time.train_gain, in_time.heldout_gain)
     f = in_time.frequency_hz
