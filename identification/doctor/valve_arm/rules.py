@@ -11,7 +11,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-
 from identification.base.lsq import Fit
 from pneumatics.robot import Robot
 

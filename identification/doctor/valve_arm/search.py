@@ -60,9 +60,10 @@ def search_pneumatic(run: DoctorRun, say) -> None:
         scored.sort(key=lambda s: -s.predicted_gain)
         cands = [s for s in scored if s.predicted_gain >= MIN_PREDICTED]
         top = worth_fitting(cands)
-        top += rivals(top, [s for s in scored if s.predicted_gain > 0])
+        positive = [s for s in scored if s.predicted_gain > 0]
+        top += rivals(top, positive)
         # the families a paying flexible correction suggests, fitted whatever their score
-        top += suggested_candidates(run, [s for s in scored if s.predicted_gain > 0], top)
+        top += suggested_candidates(run, positive, top)
         if not top:
             break
         base_h = chamber_rms(held, win_h, run.mods)
