@@ -93,10 +93,12 @@ class EndStop(Family):
         if not isinstance(params, SpringDamper):
             raise NotOnThisSide(f"{self.name}: the torque balance takes the spring_damper form (stop_rad, side_sign, "
                                 f"stiffness_nm_per_rad, damping_nm_s_per_rad), got {type(params).__name__}")
-        q, qd = exp.q_s[:, joint], exp.qd[:, joint]
+        # the bumper's torque is sharp in the angle: evaluated on the barely smoothed angle and
+        # smoothed as the equation error is (Experiment.like_q_s), not on the smoothed angle
+        q, qd = exp.q_light[:, joint], exp.qd_light[:, joint]
         tau = stop_torque(q, qd, params.stop_rad, params.side_sign, params.stiffness_nm_per_rad,
                           params.damping_nm_s_per_rad)
-        return joint_column(q.size, exp.qd.shape[1], joint, -tau)
+        return joint_column(q.size, exp.qd.shape[1], joint, -exp.like_q_s(tau, joint))
 
     def scaled(self, params, k):
         """The bumper moved out towards the reference margin by k (halving the intrusion itself

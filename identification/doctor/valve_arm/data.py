@@ -17,7 +17,8 @@ from pneumatics.recording import Recording, validate
 from pneumatics.recording_checks import check_for_robot
 from pneumatics.robot import Robot
 
-from identification.base.smoothing import discrepancy_lambda, smooth_derivatives, spline_cutoff_hz
+from identification.base.smoothing import (discrepancy_lambda, noise_sd, smooth_derivatives, smoothing_spline,
+                                          spline_cutoff_hz)
 
 FINE_DT = 1e-3
 #: rows each prepared part (fitted or held out) needs: the smoothing splines, the 30-sample
@@ -51,6 +52,26 @@ class Experiment:
     breaks: tuple = ()                              # sample indices where a pooled recording starts
     q_cutoff_hz: float = np.inf                     # the angle splines' half-amplitude frequency (lowest joint)
     clock: np.ndarray = field(default=None)         # (N,) each sample's time on its own recording's clock [s]
+    q_light: np.ndarray = field(default=None)       # (N, J) angles lightly smoothed (residuals at half the noise)
+    qd_light: np.ndarray = field(default=None)      # (N, J) their velocities
+    q_lam: np.ndarray = field(default=None)         # (R, J) each pooled recording's angle-spline lambda
+
+    def like_q_s(self, x: np.ndarray, j: int) -> np.ndarray:
+        """x (N,) smoothed as joint j's angle was (its spline's lambda, per pooled recording).
+
+        The torque balance's equation error is, to first order, the angle spline's filter
+        applied to the missing torque (it enters through the smoothed angle's second
+        derivative).  A torque sharp in the angle (a bumper the arm presses by a millimetre
+        of a radian) computed from the smoothed angle is not: the spline first spreads and
+        lowers the overshoot, and the hinge then cuts it.  Evaluated on the lightly smoothed
+        angle and passed through the same spline, its regressor matches the equation error
+        (the errors-in-variables treatment of state-variable filters: Young, *Recursive
+        Estimation and Time-Series Analysis*, 2011, ch. 8)."""
+        out = np.empty_like(x, dtype=float)
+        bounds = (0, *self.breaks, x.shape[0])
+        for r, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+            out[a:b] = smoothing_spline(self.t_sensor[a:b], x[a:b], self.q_lam[r, j])(self.t_sensor[a:b])
+        return out
 
     def clock_at(self, fine: bool = False) -> np.ndarray:
         """Recording time [s] of each sample (fine: of each 1 ms grid point): the clock a
@@ -107,12 +128,15 @@ def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None, check
     q_s = np.column_stack([x[0] for x in d])
     qd = np.column_stack([x[1] for x in d])
     qdd = np.column_stack([x[2] for x in d])
-    exp = Experiment(robot, rec, t, ts, q, q_s, qd, qdd, p, u, averaged)
+    light = [_light_spline(ts, q[:, j]) for j in range(len(joints))]
+    exp = Experiment(robot, rec, t, ts, q, q_s, qd, qdd, p, u, averaged,
+                     q_light=np.column_stack([s(ts) for s in light]),
+                     qd_light=np.column_stack([s.derivative(1)(ts) for s in light]), q_lam=np.array([lams]))
     exp.q_cutoff_hz = min(spline_cutoff_hz(lam, 1.0 / rate) for lam in lams)
     # pressures at the sample instants (window starts of the replays): a light smoothing
     # spline through the DAQ means, evaluated half a period later than they stand
     exp.p_at_t = np.column_stack([_light_spline(ts, p[:, c])(t) for c in range(p.shape[1])])
-    _fine_geometry(exp)
+    _fine_geometry(exp, light)
     return exp
 
 
@@ -120,16 +144,15 @@ def _light_spline(t, y, fraction: float = 0.5):
     """A smoothing spline leaving residuals at ``fraction`` of the noise level: it removes
     most of the noise but, unlike a spline at the full noise level, hardly attenuates fast
     motions (which would bias the chamber stiffness and so the fitted dead volumes)."""
-    from identification.base.smoothing import noise_sd, smoothing_spline
     return smoothing_spline(t, y, lam=discrepancy_lambda(t, y, fraction * noise_sd(y)))
 
 
-def _fine_geometry(exp: Experiment):
+def _fine_geometry(exp: Experiment, light: list):
     """Actuator lengths on the 1 ms grid from lightly smoothed angles."""
     robot = exp.robot
     n_f = int(round((exp.t[-1] - exp.t[0]) / FINE_DT)) + 1
     fine_t = exp.t[0] + np.arange(n_f) * FINE_DT
-    fine_q = np.column_stack([_light_spline(exp.t_sensor, exp.q[:, j])(fine_t) for j in range(exp.q.shape[1])])
+    fine_q = np.column_stack([s(fine_t) for s in light])
     exp.fine_t, exp.fine_q = fine_t, fine_q
     exp.fine_length = actuator_lengths(robot, fine_q)
 
@@ -178,7 +201,8 @@ def pool(exps: list[Experiment]) -> Experiment:
                              + ", ".join(f"{e.rec.source}: {r:.4g} Hz" for e, r in zip(exps, rates)))
     dt = 1.0 / rates[0]
     n_sub = exps[0].n_sub
-    parts = {k: [] for k in ("t", "clock", "t_sensor", "q", "q_s", "qd", "qdd", "p", "u", "p_at_t", "fine_q", "fine_length")}
+    per_sample = ("q", "q_s", "qd", "qdd", "p", "u", "p_at_t", "fine_q", "fine_length", "q_light", "qd_light", "q_lam")
+    parts = {k: [] for k in ("t", "clock", "t_sensor", *per_sample)}
     breaks, n, t_next = [], 0, exps[0].t[0]
     for k, e in enumerate(exps):
         shift = t_next - e.t[0]
@@ -190,7 +214,7 @@ def pool(exps: list[Experiment]) -> Experiment:
         parts["t"].append(e.t + shift)
         parts["clock"].append(e.clock_at())
         parts["t_sensor"].append(e.t_sensor + shift)
-        for key in ("q", "q_s", "qd", "qdd", "p", "u", "p_at_t", "fine_q", "fine_length"):
+        for key in per_sample:
             parts[key].append(getattr(e, key))
         n += e.t.size
         t_next = e.t[-1] + shift + dt
@@ -199,7 +223,8 @@ def pool(exps: list[Experiment]) -> Experiment:
     out = Experiment(first.robot, first.rec, cat["t"], cat["t_sensor"], cat["q"], cat["q_s"], cat["qd"], cat["qdd"],
                      cat["p"], cat["u"], first.averaged, cat["p_at_t"],
                      cat["t"][0] + np.arange(cat["fine_q"].shape[0]) * FINE_DT, cat["fine_length"], cat["fine_q"],
-                     tuple(breaks), min(e.q_cutoff_hz for e in exps), cat["clock"])
+                     tuple(breaks), min(e.q_cutoff_hz for e in exps), cat["clock"],
+                     cat["q_light"], cat["qd_light"], cat["q_lam"])
     expected = int(round((out.t[-1] - out.t[0]) / FINE_DT)) + 1
     if out.fine_t.size != expected:  # each recording's grid must span whole milliseconds
         raise RecordingError(f"pooling: fine grid of {out.fine_t.size} points, expected {expected}")

@@ -282,7 +282,8 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
     equation error then carries +k * penetration + b * qd in contact (tau_act - tau_inv =
     -tau_stop); k and b enter linearly, q_stop is chosen on a grid over the outer 15 % of
     the angles the training data visited, out to its last few samples (profile least squares; its stderr from the profile's
-    Delta chi^2 = 1 interval)."""
+    Delta chi^2 = 1 interval).  The bumper's torque is evaluated as the family defines it for
+    the torque balance (end_stop: on the barely smoothed angle, smoothed as the equation error)."""
     from .mechanics import fit_rigid_body
 
     base = fit_rigid_body(td)
@@ -291,12 +292,12 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
     for j, name in enumerate(robot.joint_names):
         qv = exp.q_s[td.valid, j]
         for side in (1, -1):
-            # from the 85 % quantile out to the last few samples: a stop the arm touched only
-            # briefly sits beyond all but a handful of them
-            inner, outer = np.quantile(qv, 0.85 if side > 0 else 0.15), np.sort(qv)[-4 if side > 0 else 3]
-            qs = np.linspace(inner, outer, n_grid)
+            # from the 85 % quantile out to the last few samples, evenly in the log of the
+            # number of samples past the stop: the arm dwells at its extremes, pressing a stiff
+            # bumper by a few milliradians, so the stops that matter are packed near the end
+            outward = np.sort(side * qv)[::-1] * side
+            qs = outward[np.unique(np.geomspace(3, 0.15 * qv.size, n_grid).astype(int))][::-1]
             rss = np.array([_two_fold_rss(td, td.mask(_stop_regs(exp, j, stop, side)), folds) for stop in qs])
-            rss = np.array(rss)
             k = int(np.argmin(rss))
             sigma2 = rss[k] / max(base.n - len(base.values) - 2, 1)  # (unscaled torque units)
             inside = qs[(rss - rss[k]) / sigma2 <= 1.0]
@@ -307,7 +308,10 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
                                                              END_STOP_MIN_STIFFNESS_NM_PER_RAD, np.inf, 0.0),
                                                             ("damping_nm_s_per_rad", 0.0, 0.0, np.inf, 0.0)], joint=j,
                 regressor=lambda e, td_, j=j, stop=stop, side=side: _stop_regs(e, j, stop, side),
-                fixed={"stop_rad": {"value": stop, "stderr": stderr}, "side_sign": {"value": float(side), "stderr": 0.0}}))
+                fixed={"stop_rad": {"value": stop, "stderr": stderr}, "side_sign": {"value": float(side), "stderr": 0.0}},
+                # the stiffness makes it a stop; a bumper pressed by a few mrad at low speed
+                # need not show its damping (kept in the law, at 0 if the data want none)
+                tested=(0,)))
     return out
 
 

@@ -49,6 +49,9 @@ DECIMATION_MARGIN = 2.5
 ESSENTIAL_SE = 0.2
 #: relative norm left after projecting a column on the earlier ones below which it is dependent
 DEPENDENT = 1e-4
+#: the blocks of the torque balance's two-fold cross-validation [s]: longer than an impact's
+#: transient or a breakaway, shorter than the excursions of a 60 s hand-moved reference
+FOLD_BLOCK_S = 2.0
 
 
 @dataclass
@@ -107,9 +110,11 @@ class TorqueData:
         return y[self.decimation_index()]
 
     def two_fold(self) -> list:
-        """[(fit on, test on)] x 2: the valid samples split at the middle, each half to be
-        predicted by a fit to the other (two-fold cross-validation)."""
-        half = np.arange(self.valid.size) < self.valid.size // 2
+        """[(fit on, test on)] x 2: the valid samples split into alternating FOLD_BLOCK_S
+        blocks, each set to be predicted by a fit to the other (two-fold cross-validation).
+        Blocks, not halves: a regime the motion visits in one half only (a bumper pressed
+        during the first half's excursions) would otherwise be tested where it never occurs."""
+        half = (np.arange(self.valid.size) // max(1, int(round(FOLD_BLOCK_S * self.rate_hz)))) % 2 == 0
         return [(replace(self, valid=self.valid & part), replace(self, valid=self.valid & ~part)) for part in (half, ~half)]
 
     def decimation_index(self) -> np.ndarray:
