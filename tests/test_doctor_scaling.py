@@ -140,3 +140,27 @@ def test_end_stop_grid_two_fold_rss_equals_whole_fits():
                 A = np.concatenate([td.regressors[test_on.valid], reg[test_on.valid]], axis=2)
                 whole += float(np.sum((td.residual[test_on.valid] - np.einsum("njp,p->nj", A, f.values)) ** 2))
             assert abs(H._two_fold_rss(td, reg, folds) - whole) <= 1e-8 * whole
+
+
+def test_a_stop_one_folds_blocks_never_touch_leaves_that_fold_at_the_base():
+    """A bumper pressed only inside the second fold's 2 s blocks: the first fold cannot fit it
+    (least squares would leave k and b at a start of its own choosing), so that fold's test
+    residual is the base fit's; the other fold's is the fit's as usual."""
+    from identification.doctor.valve_arm import hypotheses as H
+    from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
+
+    robot = load_robot("arm2")
+    exp = prepare(robot, read_csv(SAMPLE).slice(0, 30))
+    td = torque_data(exp)
+    fit_rigid_body(td)
+    folds = H._stop_folds(td)
+    (first, second), = [td.two_fold()[0]]
+    reg = td.mask(H._stop_regs(exp, 0, 0.0, 1))
+    reg[first.valid] = 0.0          # contact only in the second fold's blocks
+    rss = H._two_fold_rss(td, reg, folds)
+    (_, _, _, base_res_first_test), (fit_on, test_on, _, _) = folds
+    f = fit_rigid_body(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)))
+    A = np.concatenate([td.regressors[test_on.valid], reg[test_on.valid]], axis=2)
+    expected = float(np.sum(base_res_first_test ** 2)) + float(
+        np.sum((td.residual[test_on.valid] - np.einsum("njp,p->nj", A, f.values)) ** 2))
+    assert abs(rss - expected) <= 1e-8 * expected

@@ -231,7 +231,14 @@ def _two_fold_rss(td, reg, folds: list):
 
     P = len(td.names)
     total = 0.0
+    size = np.max(np.abs(reg[td.valid]), initial=0.0)
     for fit_on, test_on, base, base_res in folds:
+        if np.max(np.abs(reg[fit_on.valid]), initial=0.0) <= 1e-6 * size:
+            # no contact in this fold's blocks (only the far tails of the spline's filter): it
+            # cannot predict the stop, and least squares would leave k and b at a start of its
+            # own choosing
+            total += float(np.sum(base_res ** 2))
+            continue
         f = fit_effect(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)), base, 0)
         test = test_on.valid
         # the fit moves few of the base's columns (the stop's joint's block): the test residual
