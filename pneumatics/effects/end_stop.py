@@ -98,6 +98,11 @@ class EndStop(Family):
         q, qd = exp.q_light[:, joint], exp.qd_light[:, joint]
         tau = stop_torque(q, qd, params.stop_rad, params.side_sign, params.stiffness_nm_per_rad,
                           params.damping_nm_s_per_rad)
+        if td is not None and td.joint_ok is not None:
+            # where the torque balance leaves the joint out (near the model's own limit, whose
+            # force MuJoCo's inverse dynamics holds) a bumper cannot be judged: its torque
+            # there, filtered, would fit the limit impact's spread into the samples kept
+            tau = np.where(td.joint_ok[:, joint], tau, 0.0)
         return joint_column(q.size, exp.qd.shape[1], joint, -exp.like_q_s(tau, joint))
 
     def scaled(self, params, k):

@@ -265,13 +265,13 @@ def _stop_folds(td) -> list:
     return out
 
 
-def _stop_regs(exp, j, stop, side):
+def _stop_regs(exp, j, stop, side, td=None):
     """(N, J, 2) regressors of a bumper at ``stop``: its spring (penetration) and its damping
     (velocity while in contact), both entering the equation error with a positive coefficient
     (the end_stop family's spring_damper law per unit stiffness and damping)."""
     at = {"stop_rad": stop, "side_sign": float(side)}
     units = [{**at, "stiffness_nm_per_rad": 1.0}, {**at, "damping_nm_s_per_rad": 1.0}]
-    return _torque_regressor("end_stop", j, units, "spring_damper")(exp, None)
+    return _torque_regressor("end_stop", j, units, "spring_damper")(exp, td)
 
 
 #: the least stiffness an end stop may have [N m/rad].  A stop holds the joint: arm2's cylinders
@@ -304,7 +304,7 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
             # bumper by a few milliradians, so the stops that matter are packed near the end
             outward = np.sort(side * qv)[::-1] * side
             qs = outward[np.unique(np.geomspace(3, 0.15 * qv.size, n_grid).astype(int))][::-1]
-            rss = np.array([_two_fold_rss(td, td.mask(_stop_regs(exp, j, stop, side)), folds) for stop in qs])
+            rss = np.array([_two_fold_rss(td, td.mask(_stop_regs(exp, j, stop, side, td)), folds) for stop in qs])
             k = int(np.argmin(rss))
             sigma2 = rss[k] / max(base.n - len(base.values) - 2, 1)  # (unscaled torque units)
             inside = qs[(rss - rss[k]) / sigma2 <= 1.0]
@@ -314,7 +314,7 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
                 "end_stop", {"joint": name}, "mechanical", [("stiffness_nm_per_rad", END_STOP_MIN_STIFFNESS_NM_PER_RAD,
                                                              END_STOP_MIN_STIFFNESS_NM_PER_RAD, np.inf, 0.0),
                                                             ("damping_nm_s_per_rad", 0.0, 0.0, np.inf, 0.0)], joint=j,
-                regressor=lambda e, td_, j=j, stop=stop, side=side: _stop_regs(e, j, stop, side),
+                regressor=lambda e, td_, j=j, stop=stop, side=side: _stop_regs(e, j, stop, side, td_),
                 fixed={"stop_rad": {"value": stop, "stderr": stderr}, "side_sign": {"value": float(side), "stderr": 0.0}},
                 # the stiffness makes it a stop; a bumper pressed by a few mrad at low speed
                 # need not show its damping (kept in the law, at 0 if the data want none)
