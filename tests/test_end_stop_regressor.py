@@ -13,22 +13,14 @@ from identification.base.smoothing import discrepancy_lambda, smooth_derivatives
 from identification.doctor.valve_arm.data import Experiment, _light_spline
 from pneumatics.effects import get_family
 
-STOP_RAD, K_NM_PER_RAD = 0.733, 280.0
+STOP_RAD = 0.733
 
 
-def _pressed_bumper(rng, noise_rad=8.7e-4, rate_hz=100.0, seconds=20.0):
-    """Angles of a joint driven into a stiff bumper and held there every 4 s: the true angle
-    overshoots the stop by ~3 mrad on arrival and rests ~1 mrad into it (a second-order
-    response of the bumper's own mode, 25 ms), with white angle noise."""
+def _recording(rng, noise_rad=8.7e-4, rate_hz=100.0, seconds=20.0):
+    """A joint swinging out past STOP_RAD every 4 s, with white angle noise (0.05 deg)."""
     t = np.arange(0.0, seconds, 1.0 / rate_hz)
-    phase = t % 4.0
-    approach = 0.55 + 0.19 * np.clip(phase / 1.0, 0.0, 1.0)           # ramps out to the stop in 1 s
-    q_true = np.minimum(approach, STOP_RAD)
-    contact = (phase > 0.96) & (phase < 2.5)
-    since = np.clip(phase - 0.96, 0.0, None)
-    press = 1e-3 + 2.5e-3 * np.exp(-since / 0.025) * np.cos(since / 0.025)  # arrival overshoot, then rest
-    q_true = np.where(contact, STOP_RAD + press, np.where(phase >= 2.5, 0.55 + 0.183 * np.exp(-(phase - 2.5) / 0.3), q_true))
-    return t, q_true, q_true + rng.normal(0.0, noise_rad, t.size)
+    q_true = 0.55 + 0.19 * np.sin(2 * np.pi * t / 4.0)
+    return t, q_true + rng.normal(0.0, noise_rad, t.size)
 
 
 def _experiment(t, q):
@@ -40,14 +32,15 @@ def _experiment(t, q):
                       False, q_light=col(light(t)), qd_light=col(light.derivative(1)(t)), q_lam=np.array([[lam]]))
 
 
-def _stop_unit(exp, stop):
+def _stop_torque_term(exp, td, stop):
+    """The equation-error term of a bumper of unit stiffness and damping at ``stop`` (upper side), joint 0."""
     fam = get_family("end_stop")
-    return fam.torque_balance_term(exp, None, 0, fam.form_class("spring_damper")(stop, 1.0, 1.0, 0.0))[:, 0]
+    return fam.torque_balance_term(exp, td, 0, fam.form_class("spring_damper")(stop, 1.0, 1.0, 1.0))[:, 0]
 
 
 def test_like_q_s_is_the_angle_spline_applied_per_pooled_recording():
     rng = np.random.default_rng(0)
-    t, _, q = _pressed_bumper(rng)
+    t, q = _recording(rng)
     exp = _experiment(t, q)
     x = rng.normal(size=t.size)
     assert np.allclose(exp.like_q_s(x, 0), smoothing_spline(t, x, exp.q_lam[0, 0])(t))
@@ -57,6 +50,27 @@ def test_like_q_s_is_the_angle_spline_applied_per_pooled_recording():
     out = exp.like_q_s(x, 0)
     assert np.allclose(out[:h], smoothing_spline(t[:h], x[:h], exp.q_lam[0, 0])(t[:h]))
     assert np.allclose(out[h:], smoothing_spline(t[h:], x[h:], exp.q_lam[1, 0])(t[h:]))
+
+
+def test_the_bumper_term_is_its_torque_on_the_light_angle_filtered_and_nothing_where_the_joint_is_left_out():
+    rng = np.random.default_rng(1)
+    t, q = _recording(rng)
+    exp = _experiment(t, q)
+    pen = np.maximum(exp.q_light[:, 0] - STOP_RAD, 0.0)
+    expected = exp.like_q_s(pen + np.where(pen > 0, exp.qd_light[:, 0], 0.0), 0)
+    assert np.allclose(_stop_torque_term(exp, None, STOP_RAD), expected)
+    assert not np.any(_stop_torque_term(exp, None, 1.0))  # a stop never reached adds nothing
+    # where the torque balance leaves the joint out (near the model's own limit) the bumper's
+    # torque is zero before the filter: there it would fit the limit's impacts
+    left_out = np.zeros((t.size, 1), bool)
+    left_out[t < 10.0] = True
+
+    class Td:
+        joint_ok = ~left_out
+    term = _stop_torque_term(exp, Td, STOP_RAD)
+    kept = np.where(t >= 10.0, pen + np.where(pen > 0, exp.qd_light[:, 0], 0.0), 0.0)
+    assert np.allclose(term, exp.like_q_s(kept, 0))
+    assert np.max(np.abs(term[t < 9.0])) < 1e-3 * np.max(np.abs(term))
 
 
 @pytest.mark.slow

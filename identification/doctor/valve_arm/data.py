@@ -65,8 +65,9 @@ class Experiment:
         of a radian) computed from the smoothed angle is not: the spline first spreads and
         lowers the overshoot, and the hinge then cuts it.  Evaluated on the lightly smoothed
         angle and passed through the same spline, its regressor matches the equation error
-        (the errors-in-variables treatment of state-variable filters: Young, *Recursive
-        Estimation and Time-Series Analysis*, 2011, ch. 8)."""
+        (continuous-time identification passes regressors and output through one filter:
+        Garnier & Wang, eds., *Identification of Continuous-time Models from Sampled Data*,
+        Springer 2008)."""
         out = np.empty_like(x, dtype=float)
         bounds = (0, *self.breaks, x.shape[0])
         for r, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
