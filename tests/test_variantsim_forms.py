@@ -1,4 +1,4 @@
-"""The variant simulator's form registry (scenarios/_variantsim, "variantsim-4"): every form of
+"""The variant simulator's form registry (scenarios/_variantsim, "variantsim-5"): every form of
 every family makes a case that moves the channels its place says, piston leaks keep the
 cylinder's air, a two-sided end stop pushes back on both sides, and the simulator stays
 independent of pneumasim."""
@@ -51,7 +51,7 @@ def test_every_form_makes_a_case_that_moves_its_channels(family, form, null_twin
     truth = make_case(tmp_path, SEED, [family], forms=[form], seconds=4.0, heldout_seconds=1.0, fraction=0.03,
                       conceal_effects=False)
     eff = truth["effects"][0]
-    assert truth["generator"] == "variantsim-4" and eff["form"] == eff["kind"] == form and eff["source"]
+    assert truth["generator"] == "variantsim-5" and eff["form"] == eff["kind"] == form and eff["source"]
     table = _load(truth)
     assert np.isfinite(table).all() and table.shape == null_twin.shape
     diff = np.abs(table - null_twin).max(0)
