@@ -227,17 +227,13 @@ def _two_fold_rss(td, reg, folds: list):
     ``folds`` (:func:`_stop_folds`) hold each half's base fit: a stop acts at its own joint, so
     its fit changes that joint's part alone (joint_fit) and the other joints' test residuals
     stay the base's."""
-    from .joint_fit import fit_effect
+    from .joint_fit import fit_effect, reaches_fold
 
     P = len(td.names)
     total = 0.0
-    size = np.max(np.abs(reg[td.valid]), initial=0.0)
     for fit_on, test_on, base, base_res in folds:
-        if np.max(np.abs(reg[fit_on.valid]), initial=0.0) <= 1e-6 * size:
-            # no contact in this fold's blocks (only the far tails of the spline's filter): it
-            # cannot predict the stop, and least squares would leave k and b at a start of its
-            # own choosing
-            total += float(np.sum(base_res ** 2))
+        if not reaches_fold(reg, fit_on.valid, td.valid):
+            total += float(np.sum(base_res ** 2))  # no contact in this fold: it cannot predict the stop
             continue
         f = fit_effect(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)), base, 0)
         test = test_on.valid

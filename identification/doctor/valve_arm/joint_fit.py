@@ -50,6 +50,16 @@ def coupled_joints(extra: np.ndarray, valid: np.ndarray, base_cols: int) -> np.n
         joints = grown
 
 
+def reaches_fold(own: np.ndarray, fold_valid: np.ndarray, valid: np.ndarray) -> bool:
+    """Whether an effect's own regressor columns ``own`` (N, J, E) carry data in a fold's
+    samples: more than 1e-6 of their largest value over all valid samples.  A fold the effect
+    reaches only through a filter's far tails (an end stop pressed in the other fold's blocks,
+    or only where its joint is left out) cannot fit it: least squares would leave it at a
+    start of its own choosing (scipy's trf then warns of invalid values)."""
+    size = np.max(np.abs(own[valid]), initial=0.0)
+    return bool(np.max(np.abs(own[fold_valid]), initial=0.0) > 1e-6 * size)
+
+
 def fit_effect(td: TorqueData, extra: np.ndarray, names: list, bounds, base: Fit, base_cols: int) -> Fit:
     """``fit_rigid_body(td, extra, names, bounds)``, solved at the joints the effect's own
     columns (the last ones after ``base_cols`` extra columns of kept terms) change

@@ -12,7 +12,7 @@ import numpy as np
 from identification.base.statistics import robust_ceiling
 
 from .flex_check import partial_projection, suggested_candidates
-from .joint_fit import fit_effect
+from .joint_fit import fit_effect, reaches_fold
 from .hypotheses import angle_profile_yardstick, mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
 from .calibrate import SCALE_BOUND
 from .compliance import compliant_wall
@@ -350,6 +350,9 @@ def crossval_torque(s: Scored, exp, td, base_extra, block, folds: dict | None = 
     before, after = 0.0, 0.0
     for fit_on, test_on, base, base_rms in folds["folds"]:
         before = before + base_rms ** 2
+        if not reaches_fold(extra[:, :, base_cols:], fit_on.valid, td.valid):
+            after = after + base_rms ** 2  # this fold cannot fit it: it predicts nothing there
+            continue
         # the effect at its joint alone where it acts at one (joint_fit): the same fit
         after = after + torque_rms(test_on, fit_effect(fit_on, extra, names, bounds, base, base_cols), extra, block) ** 2
     s.heldout_before, s.heldout_after = np.sqrt(before / 2), np.sqrt(after / 2)
