@@ -89,9 +89,11 @@ def chamber_volume(P, c, th):
 
 
 @njit(cache=True)
-def valve_node_pressure(P, S, c):
-    """The pressure the valve's chamber port sees: the tube's valve end or the chamber."""
-    return S[SPT, c] if P[LN_MODE, c] == LN_TWO_VOLUME else S[SP, c]
+def valve_relax_rate(P, c, volume):
+    """How fast [1/s] valve c's orifices relax the pressure of a ``volume`` [m^3] at its port:
+    arm2's valve relaxes a 3 cm^3 volume at ~1600 1/s (arm.py NSUB); leak forms add less.
+    The lines' sub-steps are set from it."""
+    return 1600.0 * 3e-6 / volume * (P[AS, c] + P[AE, c]) / 1.7e-6 * 2.0
 
 
 @njit(cache=True)
@@ -115,9 +117,10 @@ def valve_flows(y, ps, pn, P, c):
 def line(m_v, pn, P, S, c, vol, h):
     """The mass flow [kg/s] the chamber receives from the valve through its line form:
     LN_TWO_VOLUME a tube volume and a laminar resistance (one lumped R and C; exchange exact
-    for a frozen conductance; one sub-step of :func:`two_volume_line`); LN_DELAYED the valve's flow delayed by LN_DELAY and attenuated
-    by LN_ATT (pure delay + volume; or Richer & Hurmuzlu 2000, ASME JDSMC 122:405, eq. 19's
-    delayed, attenuated flow).  LN_RLC is :func:`rlc_line`."""
+    for a frozen conductance; one sub-step of :func:`two_volume_line`); LN_DELAYED the valve's
+    flow delayed by LN_DELAY and attenuated by LN_ATT (pure delay + volume; or Richer &
+    Hurmuzlu 2000, ASME JDSMC 122:405, eq. 19's delayed, attenuated flow).  LN_RLC is
+    :func:`rlc_line`."""
     mode = P[LN_MODE, c]
     if mode == LN_TWO_VOLUME:
         p, vt = S[SP, c], P[LN_V, c]
@@ -144,8 +147,7 @@ def two_volume_line(y, ps, P, S, c, vol, h):
     explicit 0.25 ms step does not keep stable (a concealed tube went to non-finite pressures).
     Each sub-step is :func:`line`'s exchange; returns the mean (supply -> valve, tube ->
     chamber) mass flows [kg/s] over h."""
-    valve_rate = 1600.0 * 3e-6 / P[LN_V, c] * (P[AS, c] + P[AE, c]) / 1.7e-6 * 2.0
-    m = max(1, int(math.ceil(h * valve_rate / 0.5)))
+    m = max(1, int(math.ceil(h * valve_relax_rate(P, c, P[LN_V, c]) / 0.5)))
     hs = h / m
     sum_s, sum_x = 0.0, 0.0
     for _ in range(m):
@@ -168,8 +170,7 @@ def rlc_line(y, ps, P, S, c, vol, h):
     area = P[LN_V, c] / P[LN_LEN, c]
     d = math.sqrt(4.0 * area / math.pi)
     krt = KAPPA * R_GAS * T0
-    # arm2's valve relaxes a 3 cm^3 volume at ~1600 1/s (arm.py NSUB); leak forms add less
-    valve_rate = 1600.0 * 3e-6 / seg_v * (P[AS, c] + P[AE, c]) / 1.7e-6 * 2.0
+    valve_rate = valve_relax_rate(P, c, seg_v)
     wave = max(2.0 * SOUND_M_S / seg_l, math.sqrt(krt * area / (seg_l * vol)))
     m = max(1, int(math.ceil(h * max(valve_rate / 0.5, wave / 0.3))))
     hs = h / m
@@ -324,7 +325,7 @@ def step_ms(u, q, qd, bias, P, S, dt, nsub, tau):
             elif P[LN_MODE, c] == LN_TWO_VOLUME:
                 m_s, m_in[c] = two_volume_line(y, ps, P, S, c, vol, h)
             else:
-                pn = valve_node_pressure(P, S, c)
+                pn = S[SP, c]   # the valve's port sees the chamber (no tube between)
                 m_s, m_v = valve_flows(y, ps, pn, P, c)
                 m_in[c] = line(m_v, pn, P, S, c, vol, h)
             m_supply += m_s
