@@ -1,4 +1,4 @@
-"""The variant simulator's form registry (scenarios/_variantsim, "variantsim-5"): every form of
+"""The variant simulator's form registry (scenarios/_variantsim, "variantsim-6"): every form of
 every family makes a case that moves the channels its place says, piston leaks keep the
 cylinder's air, a two-sided end stop pushes back on both sides, and the simulator stays
 independent of pneumasim."""
@@ -51,7 +51,7 @@ def test_every_form_makes_a_case_that_moves_its_channels(family, form, null_twin
     truth = make_case(tmp_path, SEED, [family], forms=[form], seconds=4.0, heldout_seconds=1.0, fraction=0.03,
                       conceal_effects=False)
     eff = truth["effects"][0]
-    assert truth["generator"] == "variantsim-5" and eff["form"] == eff["kind"] == form and eff["source"]
+    assert truth["generator"] == "variantsim-6" and eff["form"] == eff["kind"] == form and eff["source"]
     table = _load(truth)
     assert np.isfinite(table).all() and table.shape == null_twin.shape
     diff = np.abs(table - null_twin).max(0)
@@ -204,3 +204,21 @@ def test_a_recording_that_is_not_finite_fails_in_the_case_maker(tmp_path, monkey
     monkeypatch.setattr(cases, "record", broken)
     with pytest.raises(ValueError, match=r"non-finite values in p_a\.elbow"):
         make_case(tmp_path, 1, [], seconds=1.0, heldout_seconds=1.0)
+
+
+def test_stiction_holds_twice_its_sliding_level_and_coulomb_lugre_less_than_one_and_a_half():
+    """The boundary between the two friction families is the torque the law can hold: a Stribeck
+    curve is drawn again until it peaks at 2 F_c or more, the Coulomb family's LuGre breaks away
+    at 1.1-1.4 F_c (forms_joint.STICTION_MIN_PEAK)."""
+    from scenarios._variantsim.forms import form_of
+    from scenarios._variantsim.forms_joint import STICTION_MIN_PEAK, stribeck_peak
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        e = form_of("stiction", "stribeck_power").draw(rng, {})
+        assert stribeck_peak(e) >= STICTION_MIN_PEAK and 2.0 <= e["fs_nm"] / e["fc_nm"] <= 3.5
+        lugre = form_of("coulomb_friction", "lugre_friction").draw(rng, {})
+        assert 1.1 <= lugre["fs_nm"] / lugre["fc_nm"] <= 1.4
+    # a tanh as wide as the Stribeck velocity hides most of the breakaway
+    wide = {"fc_nm": 0.05, "fs_nm": 0.139, "vs_rad_s": 0.022, "delta": 0.775, "ve_rad_s": 0.02}
+    assert stribeck_peak(wide) == pytest.approx(1.36, abs=0.03)
+    assert stribeck_peak({**wide, "delta": 2.0, "ve_rad_s": 1e-4}) == pytest.approx(0.139 / 0.05, rel=0.02)

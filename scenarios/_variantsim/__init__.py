@@ -1,4 +1,4 @@
-"""An independent arm2 simulator ("variantsim-5") with hidden effects in several published
+"""An independent arm2 simulator ("variantsim-6") with hidden effects in several published
 functional forms per family, for judging the doctor on physics it was not written against.
 
 Written from the arm2 reference numbers (reference/arm2.md beside DESIGN.md), paper 002 and

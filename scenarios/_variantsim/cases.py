@@ -22,7 +22,7 @@ from .forms import FORMS, PLACES, form_of, where
 
 #: the generator's version, in every truth file: forms or their ranges changed since the last
 #: version give other cases from the same seeds
-GENERATOR = "variantsim-5"
+GENERATOR = "variantsim-6"
 CHANNELS = COLUMNS[1:7]
 NOISE = np.array([ANGLE_NOISE_RAD] * 2 + [PRESSURE_NOISE_PA] * 4)
 BAND = {"r2_lo": 0.91, "r2_hi": 0.97, "r2_min": 0.9, "snr_min": 3.0}

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from . import rows as R
 from .forms import OUTSIDE, Form
 
@@ -29,11 +31,12 @@ def _set(hidden, col, pairs):
 
 # -- coulomb_friction ------------------------------------------------------------------------------
 def _lugre(r, c):
-    """Fc 0.08-0.2 N m, breakaway 1.3-1.8 Fc, Stribeck speed 0.03-0.1 rad/s; bristle
-    stiffness 1000 N m/rad and damping 1.5 N m s/rad keep the bristle mode (~250 rad/s with
-    the link inertia) well damped."""
+    """Fc 0.08-0.2 N m, breakaway 1.1-1.4 Fc (a mild Stribeck dip: a friction holding 2 Fc or
+    more is the stiction family's, and between the two a name means little), Stribeck speed
+    0.03-0.1 rad/s; bristle stiffness 1000 N m/rad and damping 1.5 N m s/rad keep the bristle
+    mode (~250 rad/s with the link inertia) well damped."""
     fc = _u(r, 0.08, 0.2)
-    return {"fc_nm": fc, "fs_nm": fc * _u(r, 1.3, 1.8), "vs_rad_s": _u(r, 0.03, 0.1),
+    return {"fc_nm": fc, "fs_nm": fc * _u(r, 1.1, 1.4), "vs_rad_s": _u(r, 0.03, 0.1),
             "sigma0_nm_per_rad": 1000.0, "sigma1_nms_per_rad": 1.5, "sigma2_nms_per_rad": 0.0}
 
 
@@ -52,7 +55,7 @@ def _apply_curve(col, e, h):
 LUGRE = "Canudas de Wit, Olsson, Åström, Lischinsky 1995, IEEE TAC 40:419"
 COULOMB = [
     Form("coulomb_friction", "lugre_friction", "joint", LUGRE,
-         "LuGre bristle model, F = σ0 z + σ1 ż + σ2 v, ż = v − σ0 |v| z / g(v)",
+         "LuGre bristle model, F = σ0 z + σ1 ż + σ2 v, ż = v − σ0 |v| z / g(v), Fs 1.1–1.4 Fc",
          _lugre, _apply_lugre, scaled=("fc_nm", "fs_nm", "sigma0_nm_per_rad", "sigma1_nms_per_rad"), slots=("lugre",)),
     Form("coulomb_friction", "coulomb_tanh", "joint",
          "Coulomb; tanh regularisation as surveyed by Armstrong-Hélouvry, Dupont, Canudas de Wit 1994, Automatica 30:1083",
@@ -80,10 +83,29 @@ def _karnopp(r, c):
     return {"fs_nm": fs, "fc_nm": fs * _u(r, 0.3, 0.5), "stick_band_rad_s": 0.02}
 
 
+#: the stiction family's friction holds at least this many times its sliding level
+STICTION_MIN_PEAK = 2.0
+
+
+def stribeck_peak(e: dict) -> float:
+    """The largest value of a regularised Stribeck curve (Fc + (Fs - Fc) exp(-|v/vs|^delta))
+    tanh(v/ve) over its sliding level Fc: what the joint can hold.  A tanh as wide as the
+    Stribeck velocity hides most of the breakaway (Fs 2.8 Fc, vs 0.022, delta 0.78 peaks at 1.35)."""
+    v = np.linspace(1e-5, 10.0 * max(e["vs_rad_s"], e["ve_rad_s"]), 4000)
+    curve = (e["fc_nm"] + (e["fs_nm"] - e["fc_nm"]) * np.exp(-np.abs(v / e["vs_rad_s"]) ** e["delta"])) \
+        * np.tanh(v / e["ve_rad_s"])
+    return float(curve.max() / e["fc_nm"])
+
+
 def _stribeck_power(r, c):
-    fc = _u(r, 0.04, 0.1)
-    return {"fc_nm": fc, "fs_nm": fc * _u(r, 2.0, 3.5), "vs_rad_s": _u(r, 0.02, 0.06),
-            "delta": _u(r, 0.5, 2.0), "ve_rad_s": 0.02}
+    """Fc 0.04-0.1 N m, Fs 2-3.5 Fc, vs 0.02-0.06 rad/s, delta 0.5-2, drawn again until the
+    regularised curve peaks at STICTION_MIN_PEAK Fc or more (stribeck_peak)."""
+    while True:
+        fc = _u(r, 0.04, 0.1)
+        e = {"fc_nm": fc, "fs_nm": fc * _u(r, 2.0, 3.5), "vs_rad_s": _u(r, 0.02, 0.06),
+             "delta": _u(r, 0.5, 2.0), "ve_rad_s": 0.02}
+        if stribeck_peak(e) >= STICTION_MIN_PEAK:
+            return e
 
 
 def _lugre_breakaway(r, c):
@@ -100,7 +122,7 @@ STICTION = [
          scaled=("fs_nm", "fc_nm"), slots=("karnopp",)),
     Form("stiction", "stribeck_power", "joint",
          "Armstrong-Hélouvry et al. 1994, Automatica 30:1083; exponent δ of Bo & Pavelescu 1982, Wear 82:277",
-         "(Fc + (Fs − Fc) exp(−|v/vs|^δ)) tanh(v/ve), Fs 2–3.5 Fc, δ 0.5–2",
+         "(Fc + (Fs − Fc) exp(−|v/vs|^δ)) tanh(v/ve), Fs 2–3.5 Fc, δ 0.5–2, peaking at 2 Fc or more",
          _stribeck_power, _apply_curve, scaled=("fc_nm", "fs_nm"), slots=("static_curve",)),
     Form("stiction", "lugre_breakaway", "joint", LUGRE,
          "LuGre with a high breakaway, Fs 2.5–4 Fc, Fc 0.04–0.08 N m",
