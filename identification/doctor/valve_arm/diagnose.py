@@ -231,8 +231,9 @@ def _evidence(f: Finding) -> str:
     where = " ".join(f"{k} {v}" for k, v in f.where.items())
     alt = f"; {' or '.join([f.family] + f.alternatives)}: these sensors cannot tell them apart" if f.alternatives else ""
     if f.alternative_places:
+        other = [k for k in f.params if k.startswith("offset_pa_if_chamber_")]
         alt += ("; a constant force error of this cylinder: an offset on chamber a or on chamber b "
-                "(offset_pa_if_chamber_b), these sensors cannot tell which")
+                f"({', '.join(other)}), these sensors cannot tell which for sure")
     judged = "" if f.scored.judged_by == "held-out data" else f" (judged by {f.scored.judged_by})"
     seen = f"; {f.evidence}" if f.evidence else ""  # what a naming test saw (breakaway.py)
     return (f"{f.family} at {where} ({p}) removes {100 * f.heldout_gain:.0f} % of the held-out "
