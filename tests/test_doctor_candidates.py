@@ -1,8 +1,11 @@
 """Which pneumatic hypotheses the doctor's search fits in full: the score test's best ones
-(worth_fitting) and, beside a leak, the other leak family at the same chamber (rivals)."""
+(worth_fitting) and, beside a leak, the other leak family at the same chamber (rivals); and
+which supply hypothesis pays as a supply does (shared_by_chambers)."""
 from types import SimpleNamespace
 
-from identification.doctor.valve_arm.search import rivals, worth_fitting
+import numpy as np
+
+from identification.doctor.valve_arm.search import rivals, shared_by_chambers, worth_fitting
 
 
 def _scored(family, chambers, gain, params=("area",)):
@@ -30,3 +33,18 @@ def test_rivals_add_nothing_already_fitted_or_unrelated():
     assert rivals([ext, valve], [ext, valve]) == []
     lag = _scored("valve_lag", [1], 0.2)
     assert rivals([lag], [lag, _scored("external_leak", [1], 0.1)]) == []
+
+
+def _supply(gains):
+    """A fitted supply hypothesis whose held-out mean square per chamber changed by ``gains``."""
+    before = np.ones(len(gains))
+    return SimpleNamespace(heldout_before=before, heldout_after=np.sqrt(1.0 - np.asarray(gains)))
+
+
+def test_a_supply_pays_in_the_chambers_it_feeds_not_in_one():
+    assert shared_by_chambers(_supply([0.62, 0.67, 0.61, 0.65]))       # a regulator's droop
+    assert shared_by_chambers(_supply([0.08, 0.21, 0.35, 0.51]))       # all but one by 0.1
+    # a line's tube at one chamber, taken up by a droop that makes the others worse
+    assert not shared_by_chambers(_supply([-0.28, 0.58, -0.48, -1.7]))
+    assert not shared_by_chambers(_supply([0.0, 0.0, 0.0, 0.36]))      # one chamber alone
+    assert not shared_by_chambers(_supply([0.3, 0.3, -0.2, -0.2]))     # as many made worse
