@@ -206,7 +206,8 @@ def generalization_case(case: dict) -> dict:
     return {"index": case["index"], "seed": case["seed"], "case": folder.name, "folder": f"cases/{folder.name}",  # in --out
             "kind": case_kind(case["families"]), "families": case["families"] or ["none"],
             "generator": truth.get("generator"), "effects": [_effect_row(e) for e in truth["effects"]],
-            "scale": c.get("scale", 1.0), "generator_min_r2": c.get("min_r2"), "concealed": c.get("concealed"),
+            "scale": c.get("scale", 1.0), "effect_scales": c.get("effect_scales"),
+            "generator_min_r2": c.get("min_r2"), "concealed": c.get("concealed"),
             "verdict": report["verdict"], "doctor_error": error,
             "findings": [_finding_row(f) for f in report["findings"]],
             "unexplained": [{"where": u.get("where"), "regime": u.get("regime"),

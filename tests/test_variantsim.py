@@ -273,3 +273,15 @@ def test_variant_benchmark_fast(tmp_path, monkeypatch):
     assert m["null_false_discovery_rate"] == 0.0
     assert m["effect_accuracy"] >= 0.5 and m["location_accuracy"] >= 0.5
     assert (tmp_path / "confusion_matrix.png").is_file()
+
+
+def test_a_pairs_effects_are_each_concealed_at_their_own_scale(tmp_path):
+    """Each effect of a pair is concealed alone first, then both at a common multiple of those
+    scales: a strong end stop does not push a line beside it to a scale no sensor resolves."""
+    from scenarios._variantsim.cases import make_case
+    truth = make_case(tmp_path, 488402088, ["end_stop", "line_dynamics"], forms=["hunt_crossley_bumper", "delay_plus_volume"],
+                      seconds=20.0, heldout_seconds=2.0, name="pair")
+    stop, line = truth["effects"]
+    c = truth["concealment"]
+    assert c["effect_scales"] == [stop["scale"], line["scale"]] and line["scale"] > 4 * stop["scale"]
+    assert c["scale"] <= 1.0 and c["min_r2"] >= 0.9

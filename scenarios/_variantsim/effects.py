@@ -8,6 +8,8 @@ columns in :data:`.arm.COLUMNS`) carry no force sensor, so an offset of one cann
 """
 from __future__ import annotations
 
+import numpy as np
+
 from .arm import Hidden
 from .forms import FAMILIES, FORMS, OUTSIDE, PLACES, Form, form_of, place_column, where  # noqa: F401 (re-exported)
 
@@ -30,11 +32,12 @@ def apply(family: str, place: str, e: dict, hidden: Hidden, form: str | None = N
     f.apply(place_column(f.kind, place), e, hidden)
 
 
-def hidden_for(effects: list[dict], k: float) -> Hidden:
+def hidden_for(effects: list[dict], k) -> Hidden:
     """A Hidden with every effect ({family, form, place, parameters}; form optional) at
-    concealment scale k."""
+    concealment scale k: one scale for all, or a sequence of one scale per effect."""
     h = Hidden()
-    for eff in effects:
+    scales = [float(k)] * len(effects) if np.isscalar(k) else list(k)
+    for eff, ke in zip(effects, scales):
         form = eff.get("form")
-        apply(eff["family"], eff["place"], effective(eff["family"], eff["parameters"], k, form), h, form)
+        apply(eff["family"], eff["place"], effective(eff["family"], eff["parameters"], ke, form), h, form)
     return h
