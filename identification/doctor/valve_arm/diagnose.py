@@ -29,7 +29,7 @@ from pneumatics.robot import Robot
 
 from .calibrate import fit_chambers, pressure_sigma
 from .data import MIN_ROWS, pool, prepare, split
-from .final_fit import final_calibration, final_joint_fit, scale_stderr
+from .final_fit import withdraw_worsening, worsening, final_calibration, final_joint_fit, scale_stderr
 from .fitted_model import fitted_model
 from .locate import Located, locate, mods_without_all
 from .mechanics import fit_rigid_body, torque_data
@@ -71,6 +71,13 @@ def _diagnose(robot: Robot, recordings, holdouts, progress) -> dict:
     located = locate(run, flags)
     say("coupled replays on held-out data (before/after)")
     replays = _prove(run)
+    while worse := worsening(run):  # the keep rule on what the user runs: withdrawn, fitted again
+        say(f"withdrawing {worse[0].family} at {worse[0].where}: it makes the held-out replay worse")
+        withdraw_worsening(run, worse[0])
+        final_joint_fit(run)
+        final_cal, cal_se, flags = final_calibration(run)
+        located = locate(run, flags)
+        replays = _prove(run)
     report = _report(run, located, replays, calibrated, final_cal, flags)
     report["diagnostics"].update({
         "train_sources": [r.source for r in recordings],

@@ -1,0 +1,42 @@
+"""The keep rule on the model the user runs (identification/doctor/valve_arm/final_fit.py:
+worsening, withdraw_worsening): a torque-balance finding whose coupled held-out replay makes its
+own channel worse is withdrawn, and the report says why."""
+from types import SimpleNamespace
+
+from identification.doctor.valve_arm.final_fit import WORSE_RATIO, worsening
+
+
+def _finding(before, after, kept=True, refined=False):
+    hyp = SimpleNamespace(label=object())   # distinct hypotheses
+    return SimpleNamespace(scored=SimpleNamespace(hyp=hyp), nrmse={"before": before, "after": after, "channel": "q.elbow"},
+                           _kept=kept, _refined=refined)
+
+
+def test_only_torque_balance_findings_that_worsen_their_channel_are_picked_worst_first():
+    stop = _finding(0.01, 0.07)                  # seven times worse
+    offset = _finding(0.02, 0.03)                # worse, but 1.5 times
+    fine = _finding(0.05, 0.04)                  # improved
+    edge = _finding(0.049, 0.049 * WORSE_RATIO * 0.99)   # within the margin
+    pneumatic = _finding(0.2, 0.4, kept=False)   # the replays' own finding: not the torque balance's
+    refined = _finding(0.2, 0.4, refined=True)   # a replay offset the torque balance only refined
+    findings = [fine, offset, edge, pneumatic, refined, stop]
+    run = SimpleNamespace(findings=findings,
+                          kept_mech=[f.scored.hyp for f in findings if f._kept],
+                          refine=[f.scored.hyp for f in findings if f._refined])
+    assert worsening(run) == [stop, offset]
+
+
+def test_a_null_recording_keeps_no_end_stop_that_makes_the_replay_worse(tmp_path):
+    """pneumasim's own null case, seed 1042 of the arm2 blind benchmark (±3 % parameter errors,
+    noise): the torque balance kept an end stop at the elbow whose coupled held-out replay made
+    the elbow's angle about 7 times worse; it is withdrawn, with the reason in the report."""
+    from identification.doctor.valve_arm.diagnose import diagnose
+    from pneumatics.recording import read_csv
+    from pneumatics.robot import load_robot
+    from scenarios._cases import make_case
+
+    truth = make_case(tmp_path, 1042, [], seconds=60.0, heldout_seconds=30.0)
+    rep = diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])], [read_csv(truth["recordings"]["heldout"])])
+    assert rep["findings"] == []
+    withdrawn = rep["diagnostics"]["withdrawn_after_final_fit"]
+    assert any(w["effect"] == "end_stop" and "worse" in w["why"] for w in withdrawn)
