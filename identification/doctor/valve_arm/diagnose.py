@@ -29,7 +29,7 @@ from pneumatics.robot import Robot
 
 from .calibrate import fit_chambers, pressure_sigma
 from .data import MIN_ROWS, pool, prepare, split
-from .final_fit import withdraw_worsening, worsening, final_calibration, final_joint_fit, scale_stderr
+from .final_fit import final_calibration, final_joint_fit, scale_stderr, withdraw_worsening, worsening
 from .fitted_model import fitted_model
 from .locate import Located, locate, mods_without_all
 from .mechanics import fit_rigid_body, torque_data
