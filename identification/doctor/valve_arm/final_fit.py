@@ -52,14 +52,20 @@ def _withdraw_failing(run: DoctorRun, failing: list, replay_offset: np.ndarray) 
         run.td = torque_data(corrected(run.exp, run.mods))
         run.td_h = torque_data(corrected(run.held, run.mods))
         run.rfit = fit_rigid_body(run.td)
-    run.refine = [h for h in run.refine if h not in failing]
-    run.kept_mech = [h for h in run.kept_mech if h not in failing]
+    drop_torque_terms(run, failing)
+
+
+def drop_torque_terms(run: DoctorRun, gone: list) -> None:
+    """The torque balance's kept terms without the hypotheses ``gone``, and the rigid body
+    calibrated again beside the rest (alone when none is left: a withdrawn term must not stay
+    in the inertias it was fitted with)."""
+    run.refine = [h for h in run.refine if h not in gone]
+    run.kept_mech = [h for h in run.kept_mech if h not in gone]
     run.extra_terms = [(mech_attr(name), h.joint) for h in run.kept_mech for name, *_ in h.params]
     run.base_extra = None
     for h in run.kept_mech:
         run.base_extra = stack_terms(run.base_extra, h.regressor(run.exp, run.td), h)
-    if run.base_extra:
-        calibrate_rigid_body(run.td, *run.base_extra)
+    calibrate_rigid_body(run.td, *(run.base_extra or ()))
 
 
 #: a torque-balance finding whose held-out coupled replay (MuJoCo and the chambers together)
@@ -82,17 +88,11 @@ def worsening(run: DoctorRun) -> list:
 def withdraw_worsening(run: DoctorRun, f) -> None:
     """Withdraw finding ``f`` (:func:`worsening`) and set the torque balance up without it; the
     final joint fit is then run again."""
-    h = f.scored.hyp
     run.findings.remove(f)
     run.withdrawn.append({"effect": f.family, "where": f.where, "final_parameters": dict(f.params),
                           "why": (f"makes the held-out coupled replay worse: NRMSE of {f.nrmse['channel']} "
                                   f"{f.nrmse['before']:.3g} before, {f.nrmse['after']:.3g} after")})
-    run.kept_mech = [k for k in run.kept_mech if k is not h]
-    run.extra_terms = [(mech_attr(name), k.joint) for k in run.kept_mech for name, *_ in k.params]
-    run.base_extra = None
-    for k in run.kept_mech:
-        run.base_extra = stack_terms(run.base_extra, k.regressor(run.exp, run.td), k)
-    calibrate_rigid_body(run.td, *(run.base_extra or ()))
+    drop_torque_terms(run, [f.scored.hyp])
 
 
 def final_calibration(run: DoctorRun) -> tuple[dict, dict, list]:
