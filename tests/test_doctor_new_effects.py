@@ -102,25 +102,6 @@ def test_a_joint_spring_no_library_effect_mimics_is_unexplained_at_its_joint(tmp
 
 
 @pytest.mark.slow
-def test_a_pressure_offset_the_replays_can_place_is_named_at_its_chamber(tmp_path):
-    """A +-8 kPa zero offset of elbow b's transducer (random-form generator, seed 883927833 of
-    the first fresh generalization run): the torque balance sees an actuator force error that
-    either chamber's offset explains; elbow b's replays pay for it on held-out data (mean
-    square -0.5) and elbow a's do not, so the finding names chamber b, with no other place."""
-    from scenarios._variantsim.cases import make_case as make_variant_case
-
-    truth = make_variant_case(tmp_path / "c", 883927833, ["pressure_sensor_offset"], seconds=60.0,
-                              heldout_seconds=30.0, name="offset")
-    assert truth["effects"][0]["where"] == {"actuator": "elbow", "chamber": "b"}
-    report = diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
-                      [read_csv(truth["recordings"]["heldout"])])
-    first = report["findings"][0]
-    assert first["effect"] == "pressure_sensor_offset" and first["where"] == {"actuator": "elbow", "chamber": "b"}
-    assert first["alternative_places"] == [] and "offset_pa_if_chamber_a" not in first["parameters"]
-    assert first["heldout_nrmse"]["after"] < first["heldout_nrmse"]["before"]
-
-
-@pytest.mark.slow
 def test_a_pressure_sensor_warming_up_is_named_with_its_drift_at_its_chamber(tmp_path):
     """A transducer whose zero settles while it warms up (random-form generator: offset +
     drift (1 - exp(-t / tau)), seed 367338335 of a development run): without a form that drifts

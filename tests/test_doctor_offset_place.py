@@ -1,11 +1,38 @@
 """Where the doctor places a pressure-sensor offset that the torque balance sees as a cylinder
-force error (identification/doctor/valve_arm/search.py: offset_place, fixed_offset_gains), on
-a recording of the random-form generator diagnosed from its CSV files alone."""
+force error (identification/doctor/valve_arm/search.py: offset_place, offset_chamber,
+fixed_offset_gains), on recordings of the random-form generator diagnosed from their CSV files
+alone."""
 import pytest
 
 from identification.doctor.valve_arm.diagnose import diagnose
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
+
+
+def diagnosed_offset(tmp_path, seed: int, where: dict) -> tuple[dict, dict]:
+    """(truth, the report's first finding) of the generator's pressure_sensor_offset case
+    ``seed`` (60 s + 30 s), whose hidden offset sits at ``where``."""
+    from scenarios._variantsim.cases import make_case as make_variant_case
+
+    truth = make_variant_case(tmp_path / "c", seed, ["pressure_sensor_offset"], seconds=60.0,
+                              heldout_seconds=30.0, name="offset")
+    assert truth["effects"][0]["where"] == where
+    report = diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
+                      [read_csv(truth["recordings"]["heldout"])])
+    first = report["findings"][0]
+    assert first["effect"] == "pressure_sensor_offset" and first["where"] == where
+    return truth, first
+
+
+@pytest.mark.slow
+def test_a_pressure_offset_the_replays_can_place_is_named_at_its_chamber(tmp_path):
+    """A +-8 kPa zero offset of elbow b's transducer (random-form generator, seed 883927833 of
+    the first fresh generalization run): the torque balance sees an actuator force error that
+    either chamber's offset explains; elbow b's replays pay for it on held-out data (mean
+    square -0.5) and elbow a's do not, so the finding names chamber b, with no other place."""
+    _, first = diagnosed_offset(tmp_path, 883927833, {"actuator": "elbow", "chamber": "b"})
+    assert first["alternative_places"] == [] and "offset_pa_if_chamber_a" not in first["parameters"]
+    assert first["heldout_nrmse"]["after"] < first["heldout_nrmse"]["before"]
 
 
 def test_a_pressure_offset_the_free_fits_cannot_place_is_placed_by_the_torque_balances_offset(tmp_path):
@@ -14,15 +41,7 @@ def test_a_pressure_offset_the_free_fits_cannot_place_is_placed_by_the_torque_ba
     chamber's replays neither pays clearly; the torque balance's offset put into chamber a's
     sensor improves a's held-out replay (the calibration refitted), into b's (-5.8 kPa) makes
     b's worse, so the finding names chamber a alone."""
-    from scenarios._variantsim.cases import make_case as make_variant_case
-
-    truth = make_variant_case(tmp_path / "c", 488402070, ["pressure_sensor_offset"], seconds=60.0,
-                              heldout_seconds=30.0, name="offset")
-    assert truth["effects"][0]["where"] == {"actuator": "shoulder", "chamber": "a"}
-    report = diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
-                      [read_csv(truth["recordings"]["heldout"])])
-    first = report["findings"][0]
-    assert first["effect"] == "pressure_sensor_offset" and first["where"] == {"actuator": "shoulder", "chamber": "a"}
+    truth, first = diagnosed_offset(tmp_path, 488402070, {"actuator": "shoulder", "chamber": "a"})
     assert first["alternative_places"] == []
     assert first["parameters"]["offset_pa"]["value"] == pytest.approx(
         truth["effects"][0]["effective"]["offset_pa"], rel=0.15)
