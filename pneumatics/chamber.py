@@ -30,7 +30,7 @@ import numpy as np
 
 from .effects.external_leak import laminar_flow
 from .effects.piston_leak import piston_leak_flow
-from .effects.supply_droop import supply_pressure
+from .effects.supply_droop import CompressorCycling, filtered_flow, receiver_step, supply_pressure
 from .medium import GasCfg, orifice_flow
 from .tables import FluidTables, valve_areas_table
 from .valve import valve_areas
@@ -120,13 +120,32 @@ def fluid_step_areas(tables: FluidTables, p, a_supply, a_exhaust, prev_length, l
                      leak_flows(tables, p))
 
 
-def supply_pressure_after(tables: FluidTables, p, a_supply) -> float:
+def supply_pressure_after(tables: FluidTables, p, a_supply, previous_pa: float | None = None,
+                          dt: float = 0.0) -> float:
     """Supply pressure [Pa] in effect for the next step under the supply_droop effect: the
-    nominal supply minus droop x the total mass flow the chambers draw at pressures p."""
-    if tables.supply_droop_pa_per_kg_s <= 0:
+    nominal supply minus droop x the total mass flow the chambers draw at pressures p, that
+    flow low-passed over ``dt`` [s] with the reservoir form's time constant from the
+    ``previous_pa`` supply pressure in effect (effects.supply_droop)."""
+    k = tables.supply_droop_pa_per_kg_s
+    if k <= 0:
         return tables.supply_pa
     m = orifice_flow(a_supply, tables.supply_pa, p, tables.gas)[0]
-    return supply_pressure(tables.supply_pa, tables.supply_droop_pa_per_kg_s, m)
+    now = supply_pressure(tables.supply_pa, k, m)
+    if tables.supply_droop_tau_s <= 0 or previous_pa is None:
+        return now
+    before = (tables.supply_pa - previous_pa) / k
+    return tables.supply_pa - k * filtered_flow(before, (tables.supply_pa - now) / k, tables.supply_droop_tau_s, dt)
+
+
+def receiver_after(tables: FluidTables, p, a_supply, previous_pa: float, running: bool, dt: float) -> tuple[float, bool]:
+    """(supply pressure [Pa], compressor running) for the next step under the supply_droop
+    effect's compressor_cycling form: its receiver (at ``previous_pa``) one step of dt on, the
+    valves drawing their flows at chamber pressures p (effects.supply_droop.receiver_step)."""
+    c = CompressorCycling(*tables.supply_compressor)
+    m = np.maximum(orifice_flow(a_supply, previous_pa, p, tables.gas)[0], 0.0).sum()
+    gas = tables.gas
+    return receiver_step(previous_pa, running, float(m), c, gas.gas_constant_j_per_kg_k * gas.temperature_k,
+                         tables.room_pa, dt)
 
 
 def leak_flows(tables: FluidTables, p):

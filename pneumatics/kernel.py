@@ -13,10 +13,13 @@ Table layouts (from :meth:`pneumatics.tables.FluidTables.packed`):
                    its laminar form's conductance [kg/(s Pa)] (0 = none)
   fric (n_f, 5):   dof address, Coulomb [N m], extra breakaway [N m], Stribeck velocity
                    [rad/s], viscous [N m s/rad] (effects coulomb_friction, stiction, viscous_friction)
-  glob (14 + flow_polynomial.SIZE,): R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply,
+  glob (21 + flow_polynomial.SIZE,): R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply,
                    room, dt, slope of the linearised flow near r = 1, supply droop
                    [Pa/(kg/s)] (effect supply_droop, 0 = none), supply pressure in effect
-                   (state); from POLY = 14 on, the flow function's polynomial
+                   (state), the droop's time constant [s] (reservoir form, 0 = none), the
+                   compressor_cycling form's receiver volume [m^3] (0 = none), delivery
+                   [kg/s], band [Pa], cut-out [Pa], leak [kg/(s Pa)] and whether it runs
+                   (state, 0 / 1); from POLY = 21 on, the flow function's polynomial
                    (pneumatics.flow_polynomial)
 """
 from __future__ import annotations
@@ -37,7 +40,9 @@ MAX_HALVINGS = 6
 MAX_REL_CHANGE = 0.25
 ERR_TOL = 1e-3
 #: where the flow function's polynomial starts in glob (module docstring)
-POLY = 14
+POLY = 21
+#: glob's compressor_cycling entries (module docstring)
+RECEIVER, RUNNING = 15, 20
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -150,12 +155,32 @@ def integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, work):
     for i in range(n_ch):  # a chamber whose whole step failed restarts with halved steps
         p[i] = whole[i] if accepted[i] > 0.0 else _adaptive_ros2(p[i], volume[i], volume_rate[i], a_s[i], a_e[i],
                                                                  glob, dt, m_extra[i], 1)
-    if glob[12] > 0.0:  # supply_droop: the line drops pressure with the total supply flow
+    if glob[RECEIVER] > 0.0:  # supply_droop, compressor_cycling: the receiver's air balance
+        _receiver_step(p, areas, glob)
+    elif glob[12] > 0.0:  # supply_droop: the line drops pressure with the total supply flow
         total = 0.0
         for i in range(n_ch):
             m_s, _, _ = orifice_flow_compiled(areas[i, 0], glob[8], p[i], glob)
             total += max(m_s, 0.0)
-        glob[13] = glob[8] - glob[12] * total
+        before = (glob[8] - glob[13]) / glob[12]  # the flow the droop in effect follows (reservoir form)
+        glob[13] = glob[8] - glob[12] * (before + (total - before) * dt / (glob[14] + dt))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _receiver_step(p, areas, glob):
+    """effects.supply_droop.receiver_step, compiled: the receiver (its pressure glob[13] is the
+    supply's) one step on, the valves drawing their flows at chamber pressures p."""
+    total = 0.0
+    for i in range(p.shape[0]):
+        m_s, _, _ = orifice_flow_compiled(areas[i, 0], glob[13], p[i], glob)
+        total += max(m_s, 0.0)
+    pr = glob[13]
+    if pr >= glob[RECEIVER + 3]:
+        glob[RUNNING] = 0.0
+    elif pr <= glob[RECEIVER + 3] - glob[RECEIVER + 2]:
+        glob[RUNNING] = 1.0
+    m_in = glob[RECEIVER + 1] * glob[RUNNING] - total - glob[RECEIVER + 4] * (pr - glob[9])
+    glob[13] = pr + glob[10] * glob[0] * glob[2] / glob[RECEIVER] * m_in
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -285,13 +310,19 @@ def pack(tables, ctrl_index, dt):
     act = np.ascontiguousarray(np.column_stack([act, np.asarray(ctrl_index, float), tables.piston_leak_m2,
                                                 tables.piston_leak_g]))
     ch = np.ascontiguousarray(np.column_stack([ch, tables.external_leak_m2, tables.external_leak_g]))
-    return act, ch, pack_glob(tables.gas, tables.supply_pa, tables.room_pa, dt, tables.supply_droop_pa_per_kg_s)
+    return act, ch, pack_glob(tables.gas, tables.supply_pa, tables.room_pa, dt, tables.supply_droop_pa_per_kg_s,
+                              tables.supply_droop_tau_s, tables.supply_compressor)
 
 
-def pack_glob(gas, supply_pa: float, room_pa: float, dt: float, droop: float) -> np.ndarray:
-    """The kernel's gas and plant constants, ``glob`` of the module docstring."""
+def pack_glob(gas, supply_pa: float, room_pa: float, dt: float, droop: float, droop_tau_s: float = 0.0,
+              compressor=None) -> np.ndarray:
+    """The kernel's gas and plant constants, ``glob`` of the module docstring; ``compressor``
+    (5,) the compressor_cycling form's values (effects.supply_droop.COMPRESSOR_FIELDS) or None.
+    Its receiver starts at the cut-out pressure, the compressor off."""
     slope = gas.c_sub * flow_function(gas.laminar_ratio, gas.heat_capacity_ratio) / (1.0 - gas.laminar_ratio)
-    return np.concatenate([gas.as_array(), [supply_pa, room_pa, dt, slope, droop, supply_pa],
+    receiver = np.zeros(5) if compressor is None else np.asarray(compressor, float)
+    start = supply_pa if compressor is None else receiver[3]
+    return np.concatenate([gas.as_array(), [supply_pa, room_pa, dt, slope, droop, start, droop_tau_s], receiver, [0.0],
                            flow_polynomial(gas.heat_capacity_ratio, gas.critical_ratio, gas.laminar_ratio)])
 
 

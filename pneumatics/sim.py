@@ -28,6 +28,7 @@ from .chamber import (
     chamber_geometry,
     fluid_step_areas,
     leak_flows,
+    receiver_after,
     supply_pressure_after,
 )
 from .effects.backlash import addresses, backlash_model, drive_pairs
@@ -41,7 +42,7 @@ from .effects.valve_leak import leak_areas, underlap_areas
 from . import arguments
 from .errors import ArgumentError, PneumasimError
 from .command_kernel import CLIPPED, OK
-from .kernel import MUJOCO_FUNCTIONS, fluid_step_fast, pack
+from .kernel import MUJOCO_FUNCTIONS, RUNNING, fluid_step_fast, pack
 from .robot import Robot
 from .tables import valve_areas_table
 
@@ -108,6 +109,8 @@ class Simulation:
             external_leak_g=self.effects.chamber_array(robot, "external_leak_laminar_kg_s_pa"),
             piston_leak_g=self.effects.actuator_array(robot, "piston_leak_laminar_kg_s_pa"),
             supply_droop_pa_per_kg_s=self.effects.supply_droop_pa_per_kg_s,
+            supply_droop_tau_s=self.effects.supply_droop_tau_s,
+            supply_compressor=self.effects.compressor_array(),
             dead_volume=robot.tables.dead_volume + line_volume)
         self._lag = self.effects.chamber_array(robot, "valve_lag_s")
         # valve_lag (slew_limit): the most the spool moves in one physics step [V] (inf: no limit)
@@ -188,7 +191,9 @@ class Simulation:
         self.spool[:] = self.command
         self.spool_position[:] = self.command
         self._spool_history = [(-np.inf, self.spool.copy())]  # (time set, spool target) for line delays
-        self._packed[2][13] = self.tables.supply_pa  # supply pressure in effect (supply_droop)
+        glob = self._packed[2]  # supply pressure in effect (supply_droop): nominal, or the receiver's cut-out
+        glob[13] = self.tables.supply_pa if self.tables.supply_compressor is None else self.tables.supply_compressor[3]
+        glob[RUNNING] = 0.0
         self._update_areas()
         self._clip_warned = False
         self.sums[:] = 0.0
@@ -429,8 +434,18 @@ class Simulation:
         else:
             self.pressure[:] = fluid_step_areas(self.tables, self.pressure, self.areas[:, 0], self.areas[:, 1],
                                                 self._prev_length, length, self.dt, self._packed[2][13])
-            self._packed[2][13] = supply_pressure_after(self.tables, self.pressure, self.areas[:, 0])
+            self._supply_after(self.pressure)
             self._prev_length[:] = length
+
+    def _supply_after(self, p):
+        """The reference path's supply pressure in effect for the next step (glob[13]; the
+        compressor's switch in glob[RUNNING]), the valves drawing at chamber pressures p."""
+        glob = self._packed[2]
+        if self.tables.supply_compressor is None:
+            glob[13] = supply_pressure_after(self.tables, p, self.areas[:, 0], glob[13], self.dt)
+        else:
+            glob[13], running = receiver_after(self.tables, p, self.areas[:, 0], glob[13], glob[RUNNING] > 0, self.dt)
+            glob[RUNNING] = float(running)
 
     def _thermal_update(self, length):
         """The fluid step (eq. 9, compiled or numpy by ``kernel``) for every chamber, then the
@@ -446,7 +461,7 @@ class Simulation:
         else:
             self.pressure[:] = fluid_step_areas(tab, p_old, self.areas[:, 0], self.areas[:, 1], prev, length,
                                                 self.dt, supply)
-            self._packed[2][13] = supply_pressure_after(tab, p_old, self.areas[:, 0])
+            self._supply_after(p_old)
             self._prev_length[:] = length
         volume, volume_rate = chamber_geometry(tab, prev, length, self.dt)
         extra = leak_flows(tab, p_old)

@@ -313,3 +313,45 @@ def test_effect_sets_combine_and_refuse_one_family_at_one_place_twice():
     assert fitted.line_dynamics == {} and tubes.valve_lag_s == {}  # neither is changed
     with pytest.raises(ConfigError, match="valve_lag_s is set at elbow.a in both"):
         both.combined(EffectSet().add("valve_lag", "elbow.a", {"time_constant_s": 0.01}))
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.one_of(st.just(0.0), st.floats(1e-3, 0.5)), st.floats(1e-4, 5e-3), st.floats(0.0, 5e-3))
+def test_the_reservoir_droop_is_the_first_order_response_of_the_supply_flow(tau, total, start):
+    """supply_droop's reservoir form (effects/supply_droop.py): the filtered flow steps toward
+    the total without overshoot, reaches about 1 - 1/e of the way in tau (backward Euler at
+    dt = tau / 200: within 1 %), and is the total itself for tau = 0 (the linear form)."""
+    from pneumatics.effects.supply_droop import filtered_flow
+
+    dt = tau / 200 if tau > 0 else 1e-5
+    f = start
+    for _ in range(200):
+        f_next = filtered_flow(f, total, tau, dt)
+        assert min(f, total) - 1e-15 <= f_next <= max(f, total) + 1e-15
+        f = f_next
+    if tau == 0.0:
+        assert f == total
+    else:
+        assert abs((f - start) - (1 - np.exp(-1)) * (total - start)) <= 0.01 * abs(total - start) + 1e-15
+
+
+def test_a_receiver_smooths_the_supply_pressure_and_keeps_its_mean():
+    """The same commands drawn from a linear droop and from one behind a 50 ms receiver: the
+    supply pressure in effect moves less behind the receiver, about the same mean drop."""
+    robot = load_robot("arm2")
+    commands = np.random.default_rng(3).uniform(0, 10, (200, 4))
+    traces = []
+    for tau in (0.0, 0.05):
+        sim = Simulation(robot, effects=EffectSet(supply_droop_pa_per_kg_s=8e7, supply_droop_tau_s=tau))
+        sim.reset(pressure_pa=4e5)
+        trace = []
+        for u in commands:
+            sim.set_command(u)
+            for _ in range(10):
+                sim.step(1)
+                trace.append(sim._packed[2][13])
+        traces.append(np.array(trace[500:]))
+    linear, receiver = traces
+    assert receiver.std() < 0.7 * linear.std()
+    drop_linear, drop_receiver = robot.tables.supply_pa - linear.mean(), robot.tables.supply_pa - receiver.mean()
+    assert drop_receiver == pytest.approx(drop_linear, rel=0.15)

@@ -124,9 +124,11 @@ def test_reordered_and_extra_mujoco_actuators(tmp_path, rng):
     np.testing.assert_allclose(runs[0], runs[1], rtol=1e-9)
 
 
-def test_fast_and_reference_agree_with_every_kernel_effect_on(rng):
+@pytest.mark.parametrize("droop_tau_s", [0.0, 0.03])
+def test_fast_and_reference_agree_with_every_kernel_effect_on(rng, droop_tau_s):
+    """... the supply droop in its linear form and behind a receiver (reservoir form)."""
     from pneumatics.effects.effect_set import EffectSet
-    effects = EffectSet(friction={"shoulder": {"coulomb_nm": 0.05, "stiction_extra_nm": 0.03, "viscous_nm_s": 0.02}},
+    effects = EffectSet(supply_droop_tau_s=droop_tau_s, friction={"shoulder": {"coulomb_nm": 0.05, "stiction_extra_nm": 0.03, "viscous_nm_s": 0.02}},
                         valve_leak_m2={"elbow.a": 3e-8}, external_leak_m2={"shoulder.b": 2e-8},
                         piston_leak_m2={"elbow": 2e-8}, valve_hysteresis_v={"shoulder.a": 0.3},
                         external_leak_laminar_kg_s_pa={"elbow.a": 2e-11}, piston_leak_laminar_kg_s_pa={"shoulder": 2e-11},
@@ -146,3 +148,31 @@ def test_fast_and_reference_agree_with_every_kernel_effect_on(rng):
         runs.append(np.array(trace))
     np.testing.assert_allclose(runs[0], runs[1], rtol=1e-8, atol=1e-9)
     assert runs[0][:, -1].min() < 6.9e5  # the supply really drooped
+
+
+def test_a_switched_compressor_saws_the_supply_between_its_limits_fast_and_reference_alike(rng):
+    """supply_droop's compressor_cycling form: a 0.2 L receiver, 0.3 bar band, the valves
+    pumping: the supply pressure falls to the cut-in pressure, the compressor refills it to the
+    cut-out, again and again; the compiled kernel and the numpy reference agree (the switch
+    flips at the same steps)."""
+    from pneumatics.effects.effect_set import EffectSet
+    effects = EffectSet().add("supply_droop", "all", {"receiver_volume_m3": 2e-4, "compressor_kg_s": 8e-3,
+                                                      "band_pa": 3e4, "cut_out_pa": 7e5, "leak_kg_s_pa": 1e-11},
+                              form="compressor_cycling")
+    robot = load_robot("arm2")
+    commands = np.where(rng.uniform(size=(300, 4)) < 0.5, 0.0, 10.0)
+    runs = []
+    for kern in ("fast", "reference"):
+        sim = Simulation(robot, kernel=kern, effects=effects)
+        sim.reset(pressure_pa=4e5)
+        trace = []
+        for u in commands:
+            sim.set_command(u)
+            sim.step(10)
+            trace.append(np.concatenate([sim.pressure, [sim._packed[2][13]]]))
+        runs.append(np.array(trace))
+    np.testing.assert_allclose(runs[0], runs[1], rtol=1e-8)
+    supply = runs[0][:, -1]
+    assert supply.min() > 7e5 - 3e4 - 5e3 and supply.max() < 7e5 + 5e3   # within the switch's limits (a 10 ms row's swing)
+    below = supply < 7e5 - 2.5e4
+    assert np.sum(below[1:] & ~below[:-1]) >= 2                           # cycles: reaches the cut-in again and again

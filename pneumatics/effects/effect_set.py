@@ -15,7 +15,11 @@ import numpy as np
 
 from ..errors import ConfigError, UnknownNameError
 from .end_stop import END_STOP_TIMECONST_S
+from .supply_droop import COMPRESSOR_FIELDS
 from .valve_leak import UNDERLAP_WIDTH_V, WIDTH_V
+
+#: the supply's fields: one supply, so one form of supply_droop at a time
+SUPPLY_FIELDS = ("supply_droop_pa_per_kg_s", "supply_droop_tau_s", *COMPRESSOR_FIELDS)
 
 
 @dataclass
@@ -57,6 +61,20 @@ class EffectSet:
     """joint -> sensor reads true + offset [rad] (angle_sensor_offset)"""
     supply_droop_pa_per_kg_s: float = 0.0
     """supply pressure drop per kg/s of the total flow the valves draw (supply_droop)"""
+    supply_droop_tau_s: float = 0.0
+    """time constant [s] of the receiver behind the regulator: the droop follows the total flow
+    low-passed with it (supply_droop, reservoir form; 0 = the linear form)"""
+    supply_receiver_m3: float = 0.0
+    """volume of the receiver a switched compressor refills (supply_droop, compressor_cycling
+    form; 0 = none): the supply pressure is the receiver's"""
+    supply_compressor_kg_s: float = 0.0
+    """the compressor's delivery while it runs [kg/s] (compressor_cycling)"""
+    supply_band_pa: float = 0.0
+    """cut-out minus cut-in pressure of its switch [Pa] (compressor_cycling)"""
+    supply_cut_out_pa: float = 0.0
+    """the pressure its switch stops it at [Pa abs] (compressor_cycling)"""
+    supply_leak_kg_s_pa: float = 0.0
+    """the system's leak conductance to the room [kg/(s Pa)] (compressor_cycling)"""
     valve_lag_s: dict = field(default_factory=dict)
     """chamber -> time constant of the spool's first-order lag behind its command [s] (valve_lag)"""
     valve_slew_s: dict = field(default_factory=dict)
@@ -101,9 +119,11 @@ class EffectSet:
                 if both:
                     raise ConfigError(f"combining effect sets: {f.name} is set at {', '.join(both)} in both")
                 getattr(out, f.name).update({**mine, **theirs})
-        if self.supply_droop_pa_per_kg_s and other.supply_droop_pa_per_kg_s:
+        if self.has_supply_effect and other.has_supply_effect:
             raise ConfigError("combining effect sets: a supply droop in both")
-        out.supply_droop_pa_per_kg_s = self.supply_droop_pa_per_kg_s or other.supply_droop_pa_per_kg_s
+        mine = self if self.has_supply_effect else other
+        for name in SUPPLY_FIELDS:
+            setattr(out, name, getattr(mine, name))
         return out
 
     def _array(self, attr: str, kind: str, names: list) -> np.ndarray:
@@ -187,9 +207,17 @@ class EffectSet:
         return np.array(rows, float).reshape(-1, 5)
 
     @property
+    def has_supply_effect(self) -> bool:
+        return bool(self.supply_droop_pa_per_kg_s or self.supply_receiver_m3)
+
+    def compressor_array(self) -> np.ndarray | None:
+        """(5,) the compressor_cycling form's values in COMPRESSOR_FIELDS order, None when off."""
+        return np.array([getattr(self, n) for n in COMPRESSOR_FIELDS], float) if self.supply_receiver_m3 > 0 else None
+
+    @property
     def empty(self) -> bool:
         return not any((self.friction, self.valve_leak_m2, self.valve_leak_exhaust_m2, self.valve_underlap, self.external_leak_m2, self.piston_leak_m2,
                         self.external_leak_laminar_kg_s_pa, self.piston_leak_laminar_kg_s_pa,
                         self.valve_hysteresis_v, self.pressure_offset_pa, self.pressure_drift, self.angle_offset_rad,
-                        self.supply_droop_pa_per_kg_s, self.valve_lag_s, self.valve_slew_s, self.line_dynamics, self.end_stop,
+                        self.supply_droop_pa_per_kg_s, self.supply_receiver_m3, self.valve_lag_s, self.valve_slew_s, self.line_dynamics, self.end_stop,
                         self.heat_transfer, self.backlash))

@@ -62,14 +62,16 @@ STRIBECK_RAD_S = get_family("stiction").forms["stribeck"]().stribeck_rad_s
 
 def form_of(family: str, parameter_names) -> str:
     """The form of ``family`` whose required parameters are all among ``parameter_names``
-    (the most specific one); a ConfigError if none fits."""
+    (the most specific one: most required, then most optional ones given, then fewest
+    optional ones missing); a ConfigError if none fits."""
     names = set(parameter_names)
-    fits = [(len(req), form) for (fam, form), (req, _) in FORMS.items() if fam == family and set(req) <= names]
+    fits = [(len(req), len(set(opt) & names), -len(set(opt) - names), form) for (fam, form), (req, opt) in FORMS.items()
+            if fam == family and set(req) <= names]
     if not fits:
         raise ConfigError(f"effect {family!r} with parameters {sorted(names)}: no known form; known: "
                           + "; ".join(f"{form} ({', '.join(req)})" for (fam, form), (req, _) in FORMS.items()
                                       if fam == family))
-    return max(fits)[1]
+    return max(fits)[-1]
 
 
 def effect_set(effects: list, robot, source: str = "model.toml") -> tuple[EffectSet, list[str]]:

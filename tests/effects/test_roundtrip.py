@@ -88,6 +88,12 @@ PRESSURE_CASES = [
     # end-of-step chamber pressures, the doctor from the drooped supply and the start-of-step
     # ones: 0.1-0.9 kPa where the valves draw hard (supply_droop.py)
     ("supply_droop", "linear", "all", {"droop_pa_per_kg_s": 8e7}, 400.0, 5.0),
+    ("supply_droop", "reservoir", "all", {"droop_pa_per_kg_s": 8e7, "time_constant_s": 0.05}, 400.0, 5.0),
+    # the receiver integrated along the recording from the simulator's start (cut-out, off) at
+    # the measured pressures' flows: a 0.2 L receiver, 0.2 bar band, cycling every ~0.5 s
+    ("supply_droop", "compressor_cycling", "all", {"receiver_volume_m3": 2e-4, "compressor_kg_s": 1.5e-3,
+                                                   "band_pa": 2e4, "cut_out_pa": 7e5, "leak_kg_s_pa": 1e-11},
+     400.0, 5.0),
     # the doctor's backlash is quasi-static (the piston leads the link by gap/2 tanh(F / 1 % of
     # its largest force)); in the simulator the piston crosses the play in a few ms, bouncing
     ("backlash", "dead_zone", "elbow", {"gap_rad": 0.012}, 800.0, 2.0),
