@@ -14,8 +14,9 @@ Arrays (C chambers, ordered a, b per actuator; W windows):
   underlap_width_v, external_leak_m2,
   external_leak_g, dead_m3, area_m2 (C,);  piston_leak_m2, piston_leak_g (C // 2,) (the *_g are the
   laminar forms' conductances [kg/(s Pa)], pneumatics.effects.external_leak.laminar_flow);  m_supply (W,) total supply flow of the last
-  step [kg/s] (read for the droop, then overwritten);  glob as in :mod:`pneumatics.kernel`;
-  wall (C,) a compliant wall's dV/dp [m^3/Pa] (0: rigid).
+  step [kg/s], low-passed with the droop's time constant glob[14] (read for the droop, then updated);  glob as in :mod:`pneumatics.kernel`;
+  wall (C,) a compliant wall's dV/dp [m^3/Pa] (0: rigid);  supply_shift (W,) each window's supply
+  pressure minus the table's [Pa] (a receiver's, supply_receiver).
 """
 from __future__ import annotations
 
@@ -136,7 +137,7 @@ def _thermal(p, T, vol, vdot, a_s, a_e, ps, hA, extra, glob):
 def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2,
                leak_width_v, underlap_m2, underlap_width_v,
                external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, dead_m3, area_m2, m_supply, glob,
-               out, heat_w_k, T, wall):
+               out, heat_w_k, T, wall, supply_shift):
     """One linearly implicit ROS2 step (chamber.integrate's stages, fixed dt) for every window.
 
     Chambers with a finite ``heat_w_k`` (C,) [W/K] carry their gas temperature ``T`` (W, C) [K]
@@ -145,13 +146,14 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
     ``wall`` (C,) [m^3/Pa] is not carried there: the check that uses it fits no heat transfer)."""
     W, C = p.shape
     dt, droop = glob[10], glob[12]
+    follow = dt / (glob[14] + dt)  # the reservoir form's low-pass of the supply flow (effects.supply_droop)
     a_s, a_e = np.empty(C), np.empty(C)
     vol, vdot = np.empty(C), np.empty(C)
     f0, jac, f1, jac1 = np.empty(C), np.empty(C), np.empty(C), np.empty(C)
     m_s, m_s1 = np.empty(C), np.empty(C)
     k1, q1 = np.empty(C), np.empty(C)
     for w in range(W):
-        ps = glob[8] - droop * m_supply[w] if droop > 0.0 else glob[8]
+        ps = (glob[8] - droop * m_supply[w] if droop > 0.0 else glob[8]) + supply_shift[w]
         for c in range(C):
             a_s[c], a_e[c] = _valve(u[w, c], rows[c], supply_scale[c], exhaust_scale[c], valve_leak_m2[c],
                                    valve_leak_exhaust_m2[c], leak_width_v, underlap_m2[c], underlap_width_v[c])
@@ -171,7 +173,7 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
             q = p[w, c] + 1.5 * dt * k1[c] + 0.5 * dt * k2
             out[w, c] = q if (math.isfinite(q) and q > 0.0) else p[w, c]
             total += max(m_s[c], 0.0)
-        m_supply[w] = total
+        m_supply[w] += (total - m_supply[w]) * follow
         for c in range(C):
             if not math.isfinite(heat_w_k[c]):
                 continue

@@ -43,6 +43,7 @@ from pneumatics.valve import valve_areas
 
 from .data import FINE_DT, Experiment
 from .pneumatic import ChamberModel, PneumaticMods, drive_side_lengths, effective_commands
+from .receiver import receiver_trajectory
 
 #: the groups of a chamber's correction, in the order the report lists them
 GROUPS = ("command near null", "pressure level", "p_a - p_b", "volume", "command history", "valve opening")
@@ -70,6 +71,9 @@ class FlowBlocks:
     sample: np.ndarray         # (B,) sample index at each block's centre
     n_sub: int                 # fine steps per sample
     supply_sensitivity: np.ndarray | None = None   # (B, C) d mdot_supply / d p_supply [kg/(s Pa)]
+    supply_total: np.ndarray | None = None         # (B,) the total flow the valves draw from the supply [kg/s]
+    fine_start: np.ndarray | None = None           # (B,) each block's first 1 ms step
+    fine_len: int = 0                               # 1 ms steps per block
 
 
 def lowpass(x: np.ndarray, tau_s: float, dt: float = FINE_DT) -> np.ndarray:
@@ -92,6 +96,7 @@ class _Valves:
         self.rows = tab.valve
         self.ps = np.full((p.shape[0], 1), tab.supply_pa)
         self._droop = float(mods.supply_droop_pa_per_kg_s)
+        self._droop_tau = float(mods.supply_droop_tau_s)
 
     def areas(self, u):
         F, C = u.shape
@@ -107,7 +112,10 @@ class _Valves:
         ps = self.ps
         if self._droop > 0:  # the supply pressure the model's own total supply flow leaves
             m0 = orifice_flow(a_s, ps, self.p, self.gas)[0]
-            ps = ps - self._droop * np.maximum(m0, 0).sum(axis=1, keepdims=True)
+            total = np.maximum(m0, 0).sum(axis=1, keepdims=True)
+            if self._droop_tau > 0:  # behind a receiver (effects.supply_droop, reservoir form)
+                total = lowpass(total, self._droop_tau)
+            ps = ps - self._droop * total
         m_s, d_ps, _ = orifice_flow(a_s, ps, self.p, self.gas)
         m_e = orifice_flow(a_e, self.p, self.tab.room_pa, self.gas)[0]
         return m_s, m_e, d_ps
@@ -143,7 +151,11 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
     dp, dv = np.diff(p, axis=0) / FINE_DT, np.diff(vol, axis=0) / FINE_DT
     implied = (v_mid * dp / n + p_mid * dv) / rt
     valves = _Valves(exp, mods, p_mid)
-    u_eff = effective_commands(exp, mods)[: F - 1]
+    u_all = effective_commands(exp, mods)
+    u_eff = u_all[: F - 1]
+    receiver = receiver_trajectory(exp, model, u_all)
+    if receiver is not None:  # a compressor's receiver: the supply pressure along the recording
+        valves.ps = receiver[: F - 1, None]
     m_s, m_e, d_ps = valves.flows(u_eff)
     leak_x = mods.external_leak_flow(p_mid, room, gas)[0]
     m_model = m_s - m_e - leak_x
@@ -154,6 +166,7 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
         m_model[:, 1::2] += m_ab
     feats = _chamber_features(exp, valves, u_eff, p_mid, v_mid, dp, dv, m_s, m_e, S)
     sup = _supply_features(m_s, d_ps)
+    total = np.maximum(m_s, 0).sum(axis=1)
     # block means over ``block`` samples = block * S fine steps, dropping those across a join
     L = block * S
     nb = (F - 1) // L
@@ -167,7 +180,7 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
         y = x[: nb * L].reshape(nb, L, *x.shape[1:]).mean(axis=1)
         return y[idx]
     return FlowBlocks(bm(implied - m_model), {g: bm(v) for g, v in feats.items()}, bm(sup),
-                      (starts[idx] + L // 2) // S, S, bm(d_ps))
+                      (starts[idx] + L // 2) // S, S, bm(d_ps), bm(total), starts[idx], L)
 
 
 def _chamber_features(exp, valves, u_eff, p, v, dp, dv, m_s, m_e, S) -> dict:

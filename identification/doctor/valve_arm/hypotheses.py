@@ -41,6 +41,7 @@ class Hypothesis:
     null_value: float = 0.0       # the parameter value that switches the effect off (apply(mods, [null]))
     adds_volume: float = 0.0      # a tube's volume adds to this nominal dead volume [m^3]: it may grow past the calibration bound
     tested: tuple | None = None   # indices of the parameters the keep rule tests (None: all)
+    screened: bool = True         # scored and fitted by the greedy search (False: by its own check, supply_receiver)
 
     def keep_mask(self) -> np.ndarray:
         """(k,) bool: the parameters that must each be MIN_T standard errors from 0 (a sensor's
@@ -172,6 +173,20 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
     out.append(Hypothesis("supply_droop", {"supply": "all"}, "pneumatic",
                           [("droop_pa_per_kg_s", 0.0, 0.0, 5e8, 5e6)], list(range(C)),
                           apply=_apply("supply_droop", robot, "all")))
+    # behind a receiver the droop follows the flow low-passed (a few ms to a few 100 ms: 20-50
+    # cm^3 behind a regulator of 1e7-1e8 Pa s/kg); the time constant is a shape, tested only
+    # through the droop, and parsimony keeps the linear form unless this pays clearly
+    out.append(Hypothesis("supply_droop", {"supply": "all"}, "pneumatic",
+                          [("droop_pa_per_kg_s", 0.0, 0.0, 5e8, 5e6), ("time_constant_s", 0.02, 0.0, 1.0, 0.01)],
+                          list(range(C)), apply=_apply("supply_droop", robot, "all", "reservoir"), tested=(0,)))
+    # a receiver a switched compressor refills: its switch makes the replays jump with the
+    # parameters, so it is searched in the flow errors (supply_receiver), not by the score test
+    out.append(Hypothesis("supply_droop", {"supply": "all"}, "pneumatic",
+                          [("receiver_volume_m3", 1e-3, 1e-4, 0.1, 0.0), ("compressor_kg_s", 3e-4, 1e-5, 1e-2, 0.0),
+                           ("band_pa", 3e4, 0.0, 1.5e5, 0.0), ("cut_out_pa", robot.tables.supply_pa, 1e5, 2e6, 0.0),
+                           ("leak_kg_s_pa", 0.0, 0.0, 1e-9, 0.0)], list(range(C)),
+                          apply=_apply("supply_droop", robot, "all", "compressor_cycling"), tested=(2,),
+                          screened=False))
     return out
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import lfilter
 
 from pneumatics.chamber import GAMMA
 from pneumatics.effects.external_leak import laminar_flow
@@ -21,12 +22,14 @@ from pneumatics.effects.pressure_sensor_offset import offset_at
 from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play, slew_limited
 from pneumatics.effects.valve_lag import slew_step_v
 from pneumatics.effects.valve_leak import UNDERLAP_WIDTH_V, WIDTH_V, leak_areas, underlap_areas
+from pneumatics.effects.supply_droop import filtered_flow
 from pneumatics.kernel import pack_glob
 from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
 
 from .chamber_kernel import step_batch
 from .data import FINE_DT, Experiment
+from .receiver import measured_supply_flow, receiver_trajectory
 from .thermal import gas_temperatures
 
 
@@ -58,6 +61,14 @@ class PneumaticMods:
     sensor_drift_pa: np.ndarray = None        # + drift (1 - exp(-t / tau)), a sensor warming up
     sensor_drift_tau_s: np.ndarray = None     # its time constant tau [s] (0: no drift)
     supply_droop_pa_per_kg_s: float = 0.0     # supply pressure drop per kg/s of total supply flow
+    supply_droop_tau_s: float = 0.0           # ... that flow low-passed with this time constant [s] (reservoir)
+    supply_receiver_m3: float = 0.0           # compressor_cycling: the receiver's volume (0: none) ...
+    supply_compressor_kg_s: float = 0.0       # ... the compressor's delivery [kg/s]
+    supply_band_pa: float = 0.0               # ... its switch's cut-out minus cut-in [Pa]
+    supply_cut_out_pa: float = 0.0            # ... its cut-out [Pa abs]
+    supply_leak_kg_s_pa: float = 0.0          # ... the system's leak to the room [kg/(s Pa)]
+    receiver_paths: dict = None               # recording set key (receiver.experiment_key) -> (F,) the receiver's
+                                              # pressure [Pa] along it, as its fit left it (supply_receiver)
     heat_w_k: np.ndarray = None               # gas-wall conductance h A [W/K]; NaN = eq. 9 (heat_transfer)
     backlash_rad: np.ndarray = None           # (n_act,) play between cylinder and link [rad] (backlash)
     wall_compliance_m3_pa: np.ndarray = None  # dV/dp of a compliant wall [m^3/Pa]: V += C (p - p_room); not a
@@ -184,11 +195,11 @@ class ChamberModel:
         self.dead = tab.dead_volume * mods.dead_volume_scale
         if mods.extra_volume_m3 is not None:
             self.dead = self.dead + mods.extra_volume_m3
-        self.rows = np.repeat(tab.valve[None], batch, 0).reshape(-1, 8)
         self.m_supply_total = np.zeros((batch, 1))
         # heat_transfer: these chambers carry a gas temperature T (W, C) [K]; set T before stepping
         self.thermal = np.array([], int) if mods.heat_w_k is None else np.nonzero(np.isfinite(mods.heat_w_k))[0]
         self.T = np.full((batch, tab.n_chambers), self.gas.temperature_k)
+        self.supply_shift = np.zeros(batch)  # (W,) the supply pressure's departure from the table's [Pa] (a receiver)
         self._kernel_args = self._pack_kernel()
 
     def _pack_kernel(self):
@@ -200,7 +211,8 @@ class ChamberModel:
             # writable copies: numba compiles read-only arrays (a broadcast view) as another type
             return np.zeros(n) if arr is None else np.array(np.broadcast_to(arr, (n,)), float)
 
-        glob = pack_glob(self.gas, tab.supply_pa, tab.room_pa, FINE_DT, float(mods.supply_droop_pa_per_kg_s))
+        glob = pack_glob(self.gas, tab.supply_pa, tab.room_pa, FINE_DT, float(mods.supply_droop_pa_per_kg_s),
+                         float(mods.supply_droop_tau_s))
         return (np.array(tab.valve, float), per(mods.supply_scale), per(mods.exhaust_scale),
                 per(mods.valve_leak_m2), per(mods.valve_leak_exhaust()), float(mods.valve_leak_width_v),
                 per(mods.valve_underlap_m2),
@@ -227,23 +239,36 @@ class ChamberModel:
         T = np.ascontiguousarray(self.T[:W], float)
         step_batch(np.ascontiguousarray(p, float), np.ascontiguousarray(u, float), np.ascontiguousarray(travel0, float),
                    np.ascontiguousarray(travel1, float), rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area,
-                   m_sup[:W], glob, out, heat, T, wall)
+                   m_sup[:W], glob, out, heat, T, wall, self.supply_shift[:W])
         self.T[:W] = T
         return out
+
+    def areas(self, u):
+        """(supply, exhaust) valve areas (W, C) [m^2] at commands u (W, C) [V], with the
+        calibration's scales and the valve leaks."""
+        a_s, a_e = valve_areas(u, self.tab.valve)  # (C, 8) rows broadcast over the windows
+        a_s = a_s * self.mods.supply_scale
+        a_e = a_e * self.mods.exhaust_scale
+        leak_s, leak_e = self.mods.valve_leak_areas(u, self.tab.valve[:, 0])
+        return a_s + leak_s, a_e + leak_e
+
+    def set_supply_flow(self, total_kg_s: np.ndarray) -> None:
+        """Start every window's low-passed supply flow (the reservoir form's state) at
+        ``total_kg_s`` (W,) [kg/s]."""
+        W = total_kg_s.size
+        self._kernel_args[14][:W] = total_kg_s
+        self.m_supply_total[:W, 0] = total_kg_s
 
     def step_reference(self, p, u, travel0, travel1):
         """The numpy reference of :meth:`step`."""
         tab, mods, gas = self.tab, self.mods, self.gas
-        W, C = p.shape
-        a_s, a_e = valve_areas(u.ravel(), self.rows[: W * C])
-        a_s = a_s.reshape(W, C) * mods.supply_scale
-        a_e = a_e.reshape(W, C) * mods.exhaust_scale
-        leak_s, leak_e = mods.valve_leak_areas(u, tab.valve[:, 0])
-        a_s, a_e = a_s + leak_s, a_e + leak_e
+        W = p.shape[0]
+        a_s, a_e = self.areas(u)
         vol = self.dead + tab.area * 0.5 * (travel0 + travel1)
         vdot = tab.area * (travel1 - travel0) / FINE_DT
         droop = mods.supply_droop_pa_per_kg_s > 0
         ps = tab.supply_pa - mods.supply_droop_pa_per_kg_s * self.m_supply_total if droop else tab.supply_pa
+        ps = ps + self.supply_shift[:W, None]
         room, rt, n = tab.room_pa, self.rt, self.n
 
         def rhs(q):
@@ -277,7 +302,8 @@ class ChamberModel:
         if self.thermal.size:
             p_new = self._thermal_step(p, p_new, a_s, a_e, vol, vdot, ps)
         if droop:
-            self.m_supply_total = np.maximum(m_s, 0).sum(axis=1, keepdims=True)
+            self.m_supply_total = filtered_flow(self.m_supply_total, np.maximum(m_s, 0).sum(axis=1, keepdims=True),
+                                                mods.supply_droop_tau_s, FINE_DT)
         return p_new
 
     def _thermal_step(self, p, p_new, a_s, a_e, vol, vdot, ps):
@@ -343,6 +369,16 @@ def initial_pressure(exp: Experiment, k0, mods: PneumaticMods):
     return p0
 
 
+def filtered_supply_flow(exp: Experiment, model: ChamberModel, u_fine: np.ndarray) -> np.ndarray:
+    """(F,) the total supply flow [kg/s] on the 1 ms grid, low-passed with the reservoir form's
+    time constant (effects.supply_droop, backward Euler as the step's), at the measured
+    pressures and the nominal supply: the receiver's state where a replay window starts (a
+    window started from no flow would see the nominal supply for a time constant)."""
+    total = measured_supply_flow(exp, model, u_fine, model.tab.supply_pa)
+    a = FINE_DT / (model.mods.supply_droop_tau_s + FINE_DT)
+    return lfilter([a], [1.0, a - 1.0], total, zi=[(1.0 - a) * total[0]])[0]
+
+
 def replay(exp: Experiment, win: Windows, mods: PneumaticMods):
     """Predicted DAQ pressures at samples starts+1 .. starts+H, with the measured ones.
 
@@ -356,12 +392,17 @@ def replay(exp: Experiment, win: Windows, mods: PneumaticMods):
     p = initial_pressure(exp, k0, mods)
     if model.thermal.size:
         model.T = gas_temperatures(exp, mods, u_f)[k0 * S]
+    if mods.supply_droop_pa_per_kg_s > 0 and mods.supply_droop_tau_s > 0:
+        model.set_supply_flow(filtered_supply_flow(exp, model, u_f)[k0 * S])
+    receiver = receiver_trajectory(exp, model, u_f)
     out = np.zeros((W, H, C))
     acc = np.zeros((W, C))
     f0 = k0 * S
     last = travel.shape[0] - 1
     for step in range(H * S):
         f = f0 + step
+        if receiver is not None:
+            model.supply_shift[:] = receiver[np.minimum(f, receiver.size - 1)] - model.tab.supply_pa
         p = model.step(p, u_f[f], travel[f], travel[np.minimum(f + 1, last)])
         acc += p
         if (step + 1) % S == 0:

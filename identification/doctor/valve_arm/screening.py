@@ -66,7 +66,9 @@ def score_pneumatic(exp, win, mods, hyps, sigma, grouped: bool = True):
     ``grouped``, the hypotheses of one family and form at disjoint chambers share their probe
     replays (:func:`probe_groups`): the cost is a few replays per family, not per place, which
     is what lets a 76-chamber robot be screened (``grouped=False``: one hypothesis at a time,
-    the obviously-correct reference the tests compare with)."""
+    the obviously-correct reference the tests compare with).  Hypotheses not ``screened`` (a
+    compressor's receiver, whose switch no probe step resolves) are left out."""
+    hyps = [h for h in hyps if h.screened]
     pred, meas = replay(exp, win, mods)
     r0 = (pred - meas) / sigma                           # (W, H, C)
     total = float(np.sum(r0 ** 2))

@@ -1,0 +1,236 @@
+"""Naming a compressor's cycling: the supply_droop family's compressor_cycling form, fitted.
+
+A receiver that a pressure switch keeps between a cut-in and a cut-out pressure saw-tooths the
+supply every chamber draws from (receiver.py; Beater 2007 ch. 2).  Its parameters are found
+where the search is cheap, in the chambers' mass-flow equation errors (flow_error): the supply
+pressure error p_receiver(t) - p_ref acts on each chamber through its own d mdot_supply /
+d p_supply, the receiver integrated along the recording at the block means of the flow the
+valves draw.  The switch makes the fit's cost jump with the parameters, so a global search
+(differential evolution) chooses them with the start state; the held-out recording keeps the
+physics (volume, delivery, band, leak, level) and only its own start is chosen, on a grid.
+Named only when the held-out recording confirms it and the receiver switched at least
+MIN_SWITCHES times in training (a step or a drift is no cycle); then the chambers'
+calibration is fitted again beside it and the held-out pressure replays must pay as every
+other pneumatic finding's (search.accept_best's rules).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import differential_evolution
+
+from pneumatics.effects.supply_droop import CompressorCycling
+
+from .calibrate import fit_chambers
+from .flexible import chamber_scales, huber_weights
+from .flow_error import FlowBlocks, flow_blocks
+from .data import FINE_DT
+from .pneumatic import ChamberModel, effective_commands
+from .receiver import experiment_key, measured_supply_flow, path, segment_starts
+from .rules import DoctorRun
+from .screening import Scored, chamber_rms
+
+#: bounds of the search: receiver 0.1-100 L, delivery 1e-5-1e-2 kg/s, band 1-150 kPa, leak to
+#: 1e-9 kg/(s Pa) (a workshop's receivers and compressors down to a robot's small ones)
+LOG10_VOLUME_M3, LOG10_DELIVERY_KG_S, LOG10_BAND_PA, LEAK_MAX = (-4.0, -1.0), (-5.0, -2.0), (3.0, 5.2), 1e-9
+#: the gain the receiver's fit needs on the training blocks and, its physics kept, on the
+#: held-out ones: the supply-in-time check's floor (supply_time.SUPPLY_TIME_FLOOR)
+RECEIVER_FLOOR = 0.1
+#: switch events the fitted receiver makes in training: a cycle, not one step
+MIN_SWITCHES = 3
+#: points of the held-out start's grid over the band (times two switch states)
+START_GRID = 41
+#: the global search's generations and population (per parameter)
+DE_ITERATIONS, DE_POPULATION = 100, 15
+
+
+@dataclass
+class ReceiverFit:
+    compressor: CompressorCycling       # its level moved to the supply the model assumes
+    train_gain: float
+    heldout_gain: float
+    switches: int
+    path_train: np.ndarray              # (F,) the receiver's pressure [Pa] on the 1 ms grid, in the model's level
+    path_heldout: np.ndarray
+    stderr: dict = field(default_factory=dict)
+
+    @property
+    def pays(self) -> bool:
+        return min(self.train_gain, self.heldout_gain) >= RECEIVER_FLOOR and self.switches >= MIN_SWITCHES
+
+
+@dataclass
+class _Target:
+    """One recording set's flow errors as the receiver's fit sees them."""
+
+    e: np.ndarray          # (B, C) flow errors [kg/s]
+    s: np.ndarray          # (B, C) their supply sensitivities [kg/(s Pa)]
+    w: np.ndarray          # (B, C) Huber weights over each chamber's scale
+    total: np.ndarray      # (F,) the valves' total supply flow on the 1 ms grid [kg/s]
+    seg: np.ndarray        # fine indices where a pooled recording starts
+    first: np.ndarray      # (B,) each block's first fine step
+    length: int            # fine steps per block
+
+    def block_means(self, p_fine: np.ndarray) -> np.ndarray:
+        cs = np.concatenate([[0.0], np.cumsum(p_fine)])
+        return (cs[self.first + self.length] - cs[self.first]) / self.length
+
+    def coarse(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(draw [kg/s], step [s], recording starts) of one step per block at its mean draw,
+        and a last step to close the last block."""
+        total = self.block_means(self.total)
+        first = self.first
+        restarts = np.nonzero(np.isin(first, self.seg) | (np.diff(first, prepend=-self.length) > self.length))[0]
+        return (np.append(total, total[-1]), np.full(total.size + 1, self.length * FINE_DT),
+                np.unique(np.append(restarts, 0)).astype(np.int64))
+
+    def residual(self, p: np.ndarray, p_ref: float | None = None, coarse: bool = False) -> tuple[np.ndarray, float]:
+        """(weighted residual (B, C), p_ref): the receiver's path p (fine, or ``coarse``: block
+        means already) as each chamber sees it through its sensitivity, about the level p_ref
+        the calibration took for the supply (solved in closed form when not given)."""
+        pb = (p if coarse else self.block_means(p))[:, None]
+        if p_ref is None:
+            sw2 = (self.s * self.w) ** 2
+            p_ref = float(np.sum(sw2 * pb - self.w ** 2 * self.s * self.e) / max(float(np.sum(sw2)), 1e-300))
+        return (self.e - self.s * (pb - p_ref)) * self.w, p_ref
+
+    def gain(self, r: np.ndarray) -> float:
+        return 1.0 - float(np.sum(r * r)) / max(float(np.sum((self.e * self.w) ** 2)), 1e-300)
+
+
+def target(b: FlowBlocks, total_fine: np.ndarray, segments: np.ndarray, scale: np.ndarray) -> _Target:
+    """The fit's view of one recording set: blocks ``b``, the fine total supply flow and the
+    pooled recordings' starts; weights over the training chambers' ``scale``."""
+    return _Target(b.error, b.supply_sensitivity, huber_weights(b.error, scale) / scale, total_fine, segments,
+                   b.fine_start, b.fine_len)
+
+
+def _compressor(x, nominal_pa: float) -> CompressorCycling:
+    return CompressorCycling(10 ** x[0], 10 ** x[1], 10 ** x[2], nominal_pa, x[3] * LEAK_MAX)
+
+
+def fit_receiver(tr: _Target, ho: _Target, nominal_pa: float, rt: float, room_pa: float,
+                 seed: int = 0) -> ReceiverFit:
+    """The compressor_cycling receiver that best explains the training flow errors, judged on
+    the held-out ones with only their start chosen."""
+    # the search on the blocks: one step per block at its mean draw, which moves the receiver
+    # by the same air as the 1 ms steps do (the switch flips inside a step, receiver._advance)
+    total_b, dt_b, seg_b = tr.coarse()
+
+    def run(x):
+        c = _compressor(x, nominal_pa)
+        p0 = np.full(seg_b.size, c.cut_out_pa - x[4] * c.band_pa)
+        p = path(total_b, dt_b, c, seg_b, p0, np.full(seg_b.size, float(x[5] > 0.5)), rt, room_pa)
+        return 0.5 * (p[:-1] + p[1:])  # the block's mean
+
+    def cost(x):
+        r, _ = tr.residual(run(x), coarse=True)
+        return float(np.sum(r * r))
+
+    bounds = [LOG10_VOLUME_M3, LOG10_DELIVERY_KG_S, LOG10_BAND_PA, (0.0, 1.0), (0.0, 1.0), (0.0, 1.0)]
+    best = differential_evolution(cost, bounds, seed=seed, maxiter=DE_ITERATIONS, popsize=DE_POPULATION, tol=1e-6,
+                                  polish=False)
+    c = _compressor(best.x, nominal_pa)
+    p_train = _best_starts(c, tr, rt, room_pa)
+    r, p_ref = tr.residual(p_train)
+    train_gain = tr.gain(r)
+    p_held = _best_starts(c, ho, rt, room_pa, p_ref)
+    held_gain = ho.gain(ho.residual(p_held, p_ref)[0])
+    # the calibration took p_ref for the nominal supply: the receiver as the model sees it
+    level = nominal_pa - p_ref
+    c_model = dataclasses.replace(c, cut_out_pa=c.cut_out_pa + level)
+    switches = int(np.sum(np.abs(np.diff(_running(p_train, c).astype(int)))))
+    return ReceiverFit(c_model, train_gain, held_gain, switches, p_train + level, p_held + level,
+                       _stderr(best.x, run, tr, nominal_pa))
+
+
+def _running(p_path: np.ndarray, c: CompressorCycling) -> np.ndarray:
+    """Whether the compressor runs along a path (F,), by its switch's rule (the path meets
+    its limits inside a step, receiver._advance, and moves on)."""
+    tol = 0.01 * c.band_pa  # a 1 ms step moves it far less
+    at_top, at_bottom = p_path >= c.cut_out_pa - tol, p_path <= c.cut_out_pa - c.band_pa + tol
+    events = np.nonzero(at_top | at_bottom)[0]
+    on = np.zeros(p_path.size, bool)
+    for a, b in zip(events, np.append(events[1:], p_path.size)):
+        on[a:b] = bool(at_bottom[a])
+    return on
+
+
+def _best_starts(c, t: _Target, rt, room_pa, p_ref=None) -> np.ndarray:
+    """The path (F,) from the best start of each pooled recording, on a grid of START_GRID
+    pressures over the band times both switch states (recordings one after another; ``p_ref``
+    fixed, else solved with each)."""
+    grid = [(c.cut_out_pa - f * c.band_pa, on) for f in np.linspace(0.0, 1.0, START_GRID) for on in (0.0, 1.0)]
+    dt = np.full(t.total.size, FINE_DT)
+    starts = [grid[0]] * t.seg.size
+
+    def run(st):
+        return path(t.total, dt, c, t.seg, [a for a, _ in st], [b for _, b in st], rt, room_pa)
+    for i in range(t.seg.size):
+        scores = [float(np.sum(t.residual(run(starts[:i] + [g] + starts[i + 1:]), p_ref)[0] ** 2)) for g in grid]
+        starts[i] = grid[int(np.argmin(scores))]
+    return run(starts)
+
+
+def _stderr(x, run, t: _Target, nominal_pa) -> dict:
+    """Standard errors of volume, delivery and band from the Jacobian of the weighted
+    residuals (the blocks' search) in their log10 (central differences of 0.001 decades)."""
+    def resid(xx):
+        return t.residual(run(xx), coarse=True)[0].ravel()
+    r0 = resid(x)
+    cols = []
+    for i in range(3):
+        h = np.zeros_like(x)
+        h[i] = 1e-3
+        cols.append((resid(x + h) - resid(x - h)) / 2e-3)
+    J = np.array(cols).T
+    try:
+        cov = np.linalg.inv(J.T @ J) * float(r0 @ r0) / max(r0.size - len(x), 1)
+        se_log = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    except np.linalg.LinAlgError:
+        se_log = np.full(3, np.inf)
+    c = _compressor(x, nominal_pa)
+    vals = (c.receiver_volume_m3, c.compressor_kg_s, c.band_pa)
+    return {n: float(v * np.log(10) * se) for n, v, se in
+            zip(("receiver_volume_m3", "compressor_kg_s", "band_pa"), vals, se_log)}
+
+
+def receiver_candidate(run: DoctorRun, block: int) -> Scored | None:
+    """The compressor_cycling hypothesis fitted (fit_receiver on the flow errors of ``block``
+    samples), the chambers' calibration refitted beside it and its held-out replays measured;
+    None when the flow errors show no cycling receiver."""
+    from .hypotheses import pneumatic_hypotheses
+
+    tab, mods = run.robot.tables, run.mods
+    rt = tab.gas.gas_constant_j_per_kg_k * tab.gas.temperature_k
+    tr_b, ho_b = flow_blocks(run.exp, mods, block), flow_blocks(run.held, mods, block)
+    if tr_b.supply_sensitivity is None or run.n_chambers < 4:
+        return None
+    scale = chamber_scales(tr_b.error)
+    views = [target(b, _fine_total(e, mods), segment_starts(e, e.n_sub), scale)
+             for b, e in ((tr_b, run.exp), (ho_b, run.held))]
+    fit = fit_receiver(*views, tab.supply_pa, rt, tab.room_pa)
+    if not fit.pays:
+        return None
+    hyp = next(h for h in pneumatic_hypotheses(run.robot) if h.family == "supply_droop" and not h.screened)
+    x = np.array([getattr(fit.compressor, p[0]) for p in hyp.params])
+    paths = {experiment_key(run.exp): fit.path_train, experiment_key(run.held): fit.path_heldout}
+    new, cfit = fit_chambers(run.exp, run.fit_win, hyp.apply(mods, x).copy(receiver_paths=paths), run.sigma)
+    s = Scored(hyp, fit.train_gain)
+    se = np.array([fit.stderr.get(p[0], np.nan) for p in hyp.params])
+    s.fit = dataclasses.replace(cfit, names=cfit.names + [p[0] for p in hyp.params],
+                                values=np.concatenate([cfit.values, x]), stderr=np.concatenate([cfit.stderr, se]))
+    s.mods = new
+    s.heldout_before = chamber_rms(run.held, run.win_h, mods)
+    s.heldout_after = chamber_rms(run.held, run.win_h, new)
+    s.heldout_null = chamber_rms(run.held, run.win_h, hyp.switched_off(new))
+    s.receiver = fit
+    return s
+
+
+def _fine_total(exp, mods) -> np.ndarray:
+    """(F,) the valves' total supply flow on the 1 ms grid at the measured pressures."""
+    model = ChamberModel(exp.robot, mods, 1)
+    return measured_supply_flow(exp, model, effective_commands(exp, mods), exp.robot.tables.supply_pa)

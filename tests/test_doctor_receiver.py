@@ -1,0 +1,85 @@
+"""supply_droop's compressor_cycling form in the doctor: the receiver's path (receiver.py) and
+its naming from the chambers' flow errors (supply_receiver.py)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from identification.doctor.valve_arm.receiver import path, path_reference
+from pneumatics.effects.supply_droop import CompressorCycling, receiver_step
+
+RT = 287.0 * 293.15
+ROOM = 1.013e5
+
+
+def _compressor(volume=1e-3, delivery=4e-4, band=3e4, leak=3e-11):
+    return CompressorCycling(volume, delivery, band, 7e5, leak)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(2e-4, 5e-3), st.floats(1e-4, 2e-3), st.floats(5e3, 8e4), st.floats(0.0, 1e-10), st.integers(0, 2**31))
+def test_the_compiled_path_is_its_reference(volume, delivery, band, leak, seed):
+    """Random draws of 0-1.5 g/s over 2000 steps of 1-100 ms, two restarts: equal to round-off."""
+    rng = np.random.default_rng(seed)
+    total, dt = rng.uniform(0.0, 1.5e-3, 2000), rng.uniform(1e-3, 0.1, 2000)
+    c = _compressor(volume, delivery, band, leak)
+    args = (total, dt, c, [0, 700], [6.9e5, 6.8e5], [0.0, 1.0], RT, ROOM)
+    np.testing.assert_allclose(path(*args), path_reference(*args), rtol=1e-12)
+
+
+def test_the_switch_flips_inside_a_step_so_the_period_does_not_depend_on_the_step():
+    """No leak, a draw held over each 0.1 s block: a path of one step per block passes through
+    the 1 ms path's pressures at the block boundaries (the switch meets its limits exactly), and
+    the receiver cycles between cut-in and cut-out."""
+    c = _compressor(leak=0.0)
+    blocks = np.random.default_rng(1).uniform(0.0, 3e-4, 300)  # within the delivery: the switch holds it
+    fine = path(np.repeat(blocks, 100), np.full(30000, 1e-3), c, [0], [7e5], [0.0], RT, ROOM)
+    coarse = path(blocks, np.full(300, 0.1), c, [0], [7e5], [0.0], RT, ROOM)
+    np.testing.assert_allclose(coarse, fine[::100], rtol=1e-9)
+    assert fine.min() >= 7e5 - 3e4 - 1.0 and fine.max() <= 7e5 + 1.0
+    assert np.sum(np.diff((fine < 7e5 - 2.9e4).astype(int)) == 1) >= 3
+
+
+def test_the_doctors_path_follows_the_simulators_receiver():
+    """The simulator steps the receiver by effects.supply_droop.receiver_step (1 ms, switching
+    at a step's end); the doctor's path at 1 ms keeps within 0.5 % of the band of it over 20 s
+    of a varying draw (about eight cycles)."""
+    c = _compressor()
+    total = 2e-4 + 2e-4 * np.sin(np.arange(20000) * 1e-3 * 2.0)
+    p, running, ref = 7e5, False, []
+    for m in total:
+        ref.append(p)
+        p, running = receiver_step(p, running, float(m), c, RT, ROOM, 1e-3)
+    doctor = path(total, np.full(total.size, 1e-3), c, [0], [7e5], [0.0], RT, ROOM)
+    assert np.max(np.abs(doctor - np.array(ref))) < 0.005 * c.band_pa * 20
+
+
+@pytest.fixture(scope="module")
+def compressor_case(tmp_path_factory):
+    """pneumasim's own arm2 (nominal parameters) tracking under PIDF, its supply a 1 L receiver
+    refilled at 0.4 g/s between 6.7 and 7 bar: 40 s + 20 s held out."""
+    from pneumatics.effects.effect_set import EffectSet
+    from pneumatics.robot import load_robot
+    from scenarios._cases import _record, _write
+
+    robot = load_robot("arm2")
+    effects = EffectSet().add("supply_droop", "all", {"receiver_volume_m3": 1e-3, "compressor_kg_s": 4e-4,
+                                                      "band_pa": 3e4, "cut_out_pa": 7e5, "leak_kg_s_pa": 3e-11},
+                              form="compressor_cycling")
+    out = tmp_path_factory.mktemp("compressor")
+    return _write(out, "compressor", _record(robot, effects, 5, 40.0, 20.0))
+
+
+def test_the_doctor_names_a_cycling_compressor(compressor_case):
+    from identification.doctor.valve_arm.diagnose import diagnose
+    from pneumatics.recording import read_csv
+    from pneumatics.robot import load_robot
+
+    rep = diagnose(load_robot("arm2"), [read_csv(compressor_case["main"])], [read_csv(compressor_case["heldout"])])
+    first = rep["findings"][0]
+    assert (first["effect"], first["form"], first["where"]) == ("supply_droop", "compressor_cycling", {"supply": "all"})
+    band = first["parameters"]["band_pa"]["value"]
+    assert 1.5e4 < band < 6e4  # the switch's 0.3 bar
+    assert first["heldout_nrmse"]["after"] < first["heldout_nrmse"]["before"]
