@@ -26,6 +26,7 @@ from pneumatics.effects.supply_droop import CompressorCycling
 from .calibrate import fit_chambers
 from .flexible import chamber_scales, huber_weights
 from .flow_error import FlowBlocks, flow_blocks
+from .hypotheses import pneumatic_hypotheses
 from .data import FINE_DT
 from .pneumatic import ChamberModel, effective_commands
 from .receiver import experiment_key, measured_supply_flow, path, segment_starts
@@ -201,8 +202,6 @@ def receiver_candidate(run: DoctorRun, block: int) -> Scored | None:
     """The compressor_cycling hypothesis fitted (fit_receiver on the flow errors of ``block``
     samples), the chambers' calibration refitted beside it and its held-out replays measured;
     None when the flow errors show no cycling receiver."""
-    from .hypotheses import pneumatic_hypotheses
-
     tab, mods = run.robot.tables, run.mods
     rt = tab.gas.gas_constant_j_per_kg_k * tab.gas.temperature_k
     tr_b, ho_b = flow_blocks(run.exp, mods, block), flow_blocks(run.held, mods, block)
