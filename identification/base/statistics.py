@@ -38,7 +38,12 @@ def robust_ceiling(values, log: bool = False) -> float:
 
 def locate_regime(residual: np.ndarray, regimes: dict, min_cover: float = 0.05):
     """(name, lift, share) of the regime holding the most residual energy per unit time."""
-    e = residual ** 2
+    return locate_energy(residual ** 2, regimes, min_cover)
+
+
+def locate_energy(e: np.ndarray, regimes: dict, min_cover: float = 0.05):
+    """(name, lift, share) of the regime holding the most of the per-sample energy ``e`` per
+    unit time (an energy a finding removes may be negative where it does worse)."""
     total = e.sum()
     best = ("throughout", 1.0, 1.0)
     if total <= 0:
