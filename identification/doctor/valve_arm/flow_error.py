@@ -39,10 +39,9 @@ from scipy.signal import lfilter
 from identification.base.smoothing import discrepancy_lambda
 
 from pneumatics.medium import orifice_flow
-from pneumatics.valve import valve_areas
 
 from .data import FINE_DT, Experiment
-from .pneumatic import ChamberModel, PneumaticMods, drive_side_lengths, effective_commands
+from .pneumatic import ChamberModel, PneumaticMods, drive_side_lengths, effective_commands, model_areas
 from .receiver import receiver_trajectory
 
 #: the groups of a chamber's correction, in the order the report lists them
@@ -93,22 +92,13 @@ class _Valves:
     def __init__(self, exp: Experiment, mods: PneumaticMods, p: np.ndarray):
         tab = exp.robot.tables
         self.tab, self.mods, self.p, self.gas = tab, mods, p, tab.gas
-        self.rows = tab.valve
         self.ps = np.full((p.shape[0], 1), tab.supply_pa)
         self._droop = float(mods.supply_droop_pa_per_kg_s)
         self._droop_tau = float(mods.supply_droop_tau_s)
 
-    def areas(self, u):
-        F, C = u.shape
-        a_s, a_e = valve_areas(u.ravel(), np.repeat(self.rows[None], F, 0).reshape(-1, 8))
-        a_s = a_s.reshape(F, C) * self.mods.supply_scale
-        a_e = a_e.reshape(F, C) * self.mods.exhaust_scale
-        leak_s, leak_e = self.mods.valve_leak_areas(u, self.rows[:, 0])
-        return a_s + leak_s, a_e + leak_e
-
     def flows(self, u):
         """(supply flow, exhaust flow), each (F, C) [kg/s], and d supply flow / d p_supply."""
-        a_s, a_e = self.areas(u)
+        a_s, a_e = model_areas(self.tab, self.mods, u)
         ps = self.ps
         if self._droop > 0:  # the supply pressure the model's own total supply flow leaves
             m0 = orifice_flow(a_s, ps, self.p, self.gas)[0]

@@ -244,13 +244,22 @@ class ChamberModel:
         return out
 
     def areas(self, u):
-        """(supply, exhaust) valve areas (W, C) [m^2] at commands u (W, C) [V], with the
-        calibration's scales and the valve leaks."""
-        a_s, a_e = valve_areas(u, self.tab.valve)  # (C, 8) rows broadcast over the windows
-        a_s = a_s * self.mods.supply_scale
-        a_e = a_e * self.mods.exhaust_scale
-        leak_s, leak_e = self.mods.valve_leak_areas(u, self.tab.valve[:, 0])
-        return a_s + leak_s, a_e + leak_e
+        """(supply, exhaust) valve areas (W, C) [m^2] at commands u (W, C) [V]: :func:`model_areas`."""
+        return model_areas(self.tab, self.mods, u)
+
+    def start_supply(self, exp: Experiment, u_fine: np.ndarray, first: np.ndarray) -> np.ndarray | None:
+        """The supply's states where the windows start (fine steps ``first`` (W,)): the
+        reservoir form's low-passed flow; returns the compressor's receiver path (F,) [Pa],
+        None without one (:meth:`follow_supply` reads it every step)."""
+        mods = self.mods
+        if mods.supply_droop_pa_per_kg_s > 0 and mods.supply_droop_tau_s > 0:
+            self.set_supply_flow(filtered_supply_flow(exp, self, u_fine)[first])
+        return receiver_trajectory(exp, self, u_fine)
+
+    def follow_supply(self, receiver: np.ndarray | None, f: np.ndarray) -> None:
+        """Each window's supply pressure at its fine step f (W,) from the receiver's path."""
+        if receiver is not None:
+            self.supply_shift[: f.size] = receiver[np.minimum(f, receiver.size - 1)] - self.tab.supply_pa
 
     def set_supply_flow(self, total_kg_s: np.ndarray) -> None:
         """Start every window's low-passed supply flow (the reservoir form's state) at
@@ -369,6 +378,15 @@ def initial_pressure(exp: Experiment, k0, mods: PneumaticMods):
     return p0
 
 
+def model_areas(tab, mods: PneumaticMods, u: np.ndarray):
+    """(supply, exhaust) valve areas [m^2] at commands u (..., C) [V] under the chamber model:
+    the valve map (the table's rows broadcast over the leading axes), the calibration's scales
+    and the valve leaks."""
+    a_s, a_e = valve_areas(u, tab.valve)
+    leak_s, leak_e = mods.valve_leak_areas(u, tab.valve[:, 0])
+    return a_s * mods.supply_scale + leak_s, a_e * mods.exhaust_scale + leak_e
+
+
 def filtered_supply_flow(exp: Experiment, model: ChamberModel, u_fine: np.ndarray) -> np.ndarray:
     """(F,) the total supply flow [kg/s] on the 1 ms grid, low-passed with the reservoir form's
     time constant (effects.supply_droop, backward Euler as the step's), at the measured
@@ -392,17 +410,14 @@ def replay(exp: Experiment, win: Windows, mods: PneumaticMods):
     p = initial_pressure(exp, k0, mods)
     if model.thermal.size:
         model.T = gas_temperatures(exp, mods, u_f)[k0 * S]
-    if mods.supply_droop_pa_per_kg_s > 0 and mods.supply_droop_tau_s > 0:
-        model.set_supply_flow(filtered_supply_flow(exp, model, u_f)[k0 * S])
-    receiver = receiver_trajectory(exp, model, u_f)
+    receiver = model.start_supply(exp, u_f, k0 * S)
     out = np.zeros((W, H, C))
     acc = np.zeros((W, C))
     f0 = k0 * S
     last = travel.shape[0] - 1
     for step in range(H * S):
         f = f0 + step
-        if receiver is not None:
-            model.supply_shift[:] = receiver[np.minimum(f, receiver.size - 1)] - model.tab.supply_pa
+        model.follow_supply(receiver, f)
         p = model.step(p, u_f[f], travel[f], travel[np.minimum(f + 1, last)])
         acc += p
         if (step + 1) % S == 0:

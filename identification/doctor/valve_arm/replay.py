@@ -23,10 +23,8 @@ from .pneumatic import (
     PneumaticMods,
     Windows,
     effective_commands,
-    filtered_supply_flow,
     initial_pressure,
 )
-from .receiver import receiver_trajectory
 from .thermal import gas_temperatures
 
 
@@ -151,9 +149,7 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
     u_f = effective_commands(exp, pmods)
     if chambers.thermal.size:
         chambers.T = gas_temperatures(exp, pmods, u_f)[starts * S]
-    if pmods.supply_droop_pa_per_kg_s > 0 and pmods.supply_droop_tau_s > 0:
-        chambers.set_supply_flow(filtered_supply_flow(exp, chambers, u_f)[starts * S])
-    receiver = receiver_trajectory(exp, chambers, u_f)
+    receiver = chambers.start_supply(exp, u_f, starts * S)
     lengths = np.array([d.actuator_length[ids] for d in datas])
     travel0 = chambers.travel(lengths)
     tab = robot.tables
@@ -179,8 +175,7 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
             mujoco.mj_transmission(model, d)
             lengths[w] = d.actuator_length[ids]
         travel1 = chambers.travel(lengths)
-        if receiver is not None:
-            chambers.supply_shift[:] = receiver[np.minimum(f, receiver.size - 1)] - tab.supply_pa
+        chambers.follow_supply(receiver, f)
         p = chambers.step(p, u_f[f], travel0, travel1)
         travel0 = travel1
         acc_p += p
