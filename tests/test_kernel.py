@@ -124,6 +124,19 @@ def test_reordered_and_extra_mujoco_actuators(tmp_path, rng):
     np.testing.assert_allclose(runs[0], runs[1], rtol=1e-9)
 
 
+def _traced(kernel: str, effects, commands) -> np.ndarray:
+    """(rows, ...) pressures, joint angles, observed pressures and the supply pressure in
+    effect after each 10 ms row of ``commands`` on arm2 with ``effects`` under ``kernel``."""
+    sim = Simulation(load_robot("arm2"), kernel=kernel, effects=effects)
+    sim.reset(pressure_pa=4e5)
+    trace = []
+    for u in commands:
+        sim.set_command(u)
+        sim.step(10)
+        trace.append(np.concatenate([sim.pressure, sim.data.qpos, sim.observe().p, [sim._packed[2][13]]]))
+    return np.array(trace)
+
+
 @pytest.mark.parametrize("droop_tau_s", [0.0, 0.03])
 def test_fast_and_reference_agree_with_every_kernel_effect_on(rng, droop_tau_s):
     """... the supply droop in its linear form and behind a receiver (reservoir form)."""
@@ -134,18 +147,8 @@ def test_fast_and_reference_agree_with_every_kernel_effect_on(rng, droop_tau_s):
                         external_leak_laminar_kg_s_pa={"elbow.a": 2e-11}, piston_leak_laminar_kg_s_pa={"shoulder": 2e-11},
                         pressure_offset_pa={"elbow.b": 1e4}, angle_offset_rad={"elbow": 0.02},
                         supply_droop_pa_per_kg_s=5e7)
-    robot = load_robot("arm2")
-    runs = []
     commands = rng.uniform(0, 10, (30, 4))
-    for kern in ("fast", "reference"):
-        sim = Simulation(robot, kernel=kern, effects=effects)
-        sim.reset(pressure_pa=4e5)
-        trace = []
-        for u in commands:
-            sim.set_command(u)
-            sim.step(10)
-            trace.append(np.concatenate([sim.pressure, sim.data.qpos, sim.observe().p, [sim._packed[2][13]]]))
-        runs.append(np.array(trace))
+    runs = [_traced(kern, effects, commands) for kern in ("fast", "reference")]
     np.testing.assert_allclose(runs[0], runs[1], rtol=1e-8, atol=1e-9)
     assert runs[0][:, -1].min() < 6.9e5  # the supply really drooped
 
@@ -159,18 +162,8 @@ def test_a_switched_compressor_saws_the_supply_between_its_limits_fast_and_refer
     effects = EffectSet().add("supply_droop", "all", {"receiver_volume_m3": 2e-4, "compressor_kg_s": 8e-3,
                                                       "band_pa": 3e4, "cut_out_pa": 7e5, "leak_kg_s_pa": 1e-11},
                               form="compressor_cycling")
-    robot = load_robot("arm2")
     commands = np.where(rng.uniform(size=(300, 4)) < 0.5, 0.0, 10.0)
-    runs = []
-    for kern in ("fast", "reference"):
-        sim = Simulation(robot, kernel=kern, effects=effects)
-        sim.reset(pressure_pa=4e5)
-        trace = []
-        for u in commands:
-            sim.set_command(u)
-            sim.step(10)
-            trace.append(np.concatenate([sim.pressure, [sim._packed[2][13]]]))
-        runs.append(np.array(trace))
+    runs = [_traced(kern, effects, commands) for kern in ("fast", "reference")]
     np.testing.assert_allclose(runs[0], runs[1], rtol=1e-8)
     supply = runs[0][:, -1]
     assert supply.min() > 7e5 - 3e4 - 5e3 and supply.max() < 7e5 + 5e3   # within the switch's limits (a 10 ms row's swing)
