@@ -55,3 +55,11 @@ def finding_line(i: int, finding: dict, what_tells_apart: str) -> str:
     alt = (f"  (or {', '.join(finding['alternatives'])}: not separable with these {what_tells_apart})"
            if finding["alternatives"] else "")
     return f"  {i}. {finding['effect']} at {where}: {par}{alt}"
+
+
+def with_error(name: str, v: dict, digits: int = 3, error_digits: int = 1) -> str:
+    """``name = value ± stderr`` of a reported parameter ({"value", "stderr"}); a parameter
+    without an error bar (a level the calibration shares, a bound it reached) says so."""
+    se = v.get("stderr")
+    err = f" ± {se:.{error_digits}g}" if se is not None and np.isfinite(se) else " (no error bar)"
+    return f"{name} = {v['value']:.{digits}g}{err}"

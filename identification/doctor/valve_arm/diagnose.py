@@ -20,6 +20,7 @@ import time
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from identification.base.reporting import with_error
 from identification.base.statistics import input_xcorr, ljung_box, ljung_box_p
 from pneumatics.effects.from_finding import form_of
 from pneumatics.errors import RecordingError
@@ -234,7 +235,7 @@ def _channels(f: Finding, robot) -> list[str]:
 
 
 def _evidence(f: Finding) -> str:
-    p = ", ".join(f"{k} = {v['value']:.3g} ± {v['stderr']:.2g}" for k, v in f.params.items())
+    p = ", ".join(with_error(k, v, 3, 2) for k, v in f.params.items())
     where = " ".join(f"{k} {v}" for k, v in f.where.items())
     alt = f"; {' or '.join([f.family] + f.alternatives)}: these sensors cannot tell them apart" if f.alternatives else ""
     if f.alternative_places:

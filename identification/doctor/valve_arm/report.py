@@ -13,7 +13,7 @@ import numpy as np
 from pneumatics.io import atomic_save, atomic_write_json, atomic_write_text
 from pneumatics.recording import Recording
 
-from identification.base.reporting import jsonable
+from identification.base.reporting import jsonable, with_error
 
 
 def summary(report: dict) -> str:
@@ -23,7 +23,7 @@ def summary(report: dict) -> str:
              f"verdict: {report['verdict'].replace('_', ' ')}"]
     for i, f in enumerate(report["findings"], 1):
         where = " ".join(f"{k} {v}" for k, v in f["where"].items())
-        par = ", ".join(f"{k} = {v['value']:.3g} ± {v['stderr']:.1g}" for k, v in f["parameters"].items())
+        par = ", ".join(with_error(k, v) for k, v in f["parameters"].items())
         n = f["heldout_nrmse"]
         alt = f"  (or {', '.join(f['alternatives'])}: not separable with these sensors)" if f["alternatives"] else ""
         lines.append(f"  {i}. {f['effect']} at {where}: {par}{alt}")
@@ -185,7 +185,7 @@ def _markdown(report, pngs, fitted: bool = False) -> str:
         lines += ["| effect | where | regime | parameters | held-out NRMSE before → after | in the regime | inclusion |",
                   "| --- | --- | --- | --- | --- | --- | --- |"]
         for f in report["findings"]:
-            par = "; ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in f["parameters"].items())
+            par = "; ".join(with_error(k, v, 4, 2) for k, v in f["parameters"].items())
             n, nr = f["heldout_nrmse"], f.get("heldout_nrmse_in_regime")
             inside = f"{nr['before']:.4f} → {nr['after']:.4f}" if nr else "—"
             lines.append(f"| {f['effect']} | {json.dumps(f['where'])} | {f['regime']} | {par} | "
