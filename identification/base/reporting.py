@@ -51,7 +51,7 @@ def finding_line(i: int, finding: dict, what_tells_apart: str) -> str:
     """``  i. effect at place: parameter = value ± error, ...`` and the families these
     ``what_tells_apart`` ("data", "sensors") cannot separate from it."""
     where = " ".join(f"{k} {v}" for k, v in finding["where"].items())
-    par = ", ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in finding["parameters"].items())
+    par = ", ".join(with_error(k, v, 4, 2) for k, v in finding["parameters"].items())
     alt = (f"  (or {', '.join(finding['alternatives'])}: not separable with these {what_tells_apart})"
            if finding["alternatives"] else "")
     return f"  {i}. {finding['effect']} at {where}: {par}{alt}"

@@ -18,6 +18,7 @@ from pneumatics.errors import RecordingError
 from pneumatics.recording import Recording
 
 from identification.base import lsq
+from identification.base.reporting import with_error
 
 from .common import KEEP, autocorrelation_inflation, noise_sd, nrmse, split_parts
 
@@ -242,7 +243,7 @@ def _cylinder_findings(cfg, scored, best, base, noise, pressures, ho) -> list:
 
 
 def _fmt(params: dict) -> str:
-    return ", ".join(f"{k} = {v['value']:.3g} ± {v['stderr']:.2g}" for k, v in params.items())
+    return ", ".join(with_error(k, v, 3, 2) for k, v in params.items())
 
 
 def _cylinder_detail(findings, best, isolable, pressures) -> str:

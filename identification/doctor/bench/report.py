@@ -14,7 +14,7 @@ import numpy as np
 
 from pneumatics.io import atomic_write_json, atomic_write_text
 
-from identification.base.reporting import finding_line, jsonable, pyplot, save_figure, summary_head
+from identification.base.reporting import finding_line, jsonable, pyplot, save_figure, summary_head, with_error
 
 
 def summary(report: dict) -> str:
@@ -111,7 +111,7 @@ def _markdown(report: dict, pngs) -> str:
         lines += ["| effect | where | parameters | held-out NRMSE before → after | alternatives |",
                   "| --- | --- | --- | --- | --- |"]
         for f in report["findings"]:
-            par = "; ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in f["parameters"].items())
+            par = "; ".join(with_error(k, v, 4, 2) for k, v in f["parameters"].items())
             n = f["heldout_nrmse"]
             lines.append(f"| {f['effect']} | {json.dumps(f['where'])} | {par} | {n['before']:.3f} → {n['after']:.3f} "
                          f"| {', '.join(f['alternatives']) or '—'} |")
@@ -123,7 +123,7 @@ def _markdown(report: dict, pngs) -> str:
               "## Every hypothesis (fitted on the first part, predicting the held-out part)", "",
               "| hypothesis | parameters | held-out NRMSE |", "| --- | --- | --- |"]
     for h in report["hypotheses"]:
-        par = "; ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in h["parameters"].items())
+        par = "; ".join(with_error(k, v, 4, 2) for k, v in h["parameters"].items())
         bad = f" (implausible: {h['implausible']})" if h.get("implausible") else ""
         lines.append(f"| {h['name']} | {par or '—'}{bad} | {h['heldout_nrmse']:.3f} |")
     lines += ["", "## Diagnostics", ""]

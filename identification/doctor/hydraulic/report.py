@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from identification.base.reporting import finding_line, jsonable, pyplot, save_figure, summary_head
+from identification.base.reporting import finding_line, jsonable, pyplot, save_figure, summary_head, with_error
 from pneumatics.io import atomic_write_json, atomic_write_text
 
 
@@ -95,7 +95,7 @@ def _markdown(report: dict, pngs) -> str:
         lines += ["| effect | where | regime | parameters | held-out NRMSE before → after | alternatives |",
                   "| --- | --- | --- | --- | --- | --- |"]
         for f in report["findings"]:
-            par = "; ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in f["parameters"].items())
+            par = "; ".join(with_error(k, v, 4, 2) for k, v in f["parameters"].items())
             n = f["heldout_nrmse"]
             lines.append(f"| {f['effect']} | {json.dumps(f['where'])} | {f['regime']} | {par} | {f['heldout_channel']}: "
                          f"{n['before']:.3f} → {n['after']:.3f} | {', '.join(f['alternatives']) or '—'} |")
@@ -108,7 +108,7 @@ def _markdown(report: dict, pngs) -> str:
     lines += ["", "## Every hypothesis (first round, with its side's calibration, scored on the held-out part)", "",
               "| hypothesis | parameters | held-out J |", "| --- | --- | --- |"]
     for h in report["hypotheses"]:
-        par = "; ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in h["parameters"].items())
+        par = "; ".join(with_error(k, v, 4, 2) for k, v in h["parameters"].items())
         lines.append(f"| {h['name']} | {par} | {h['heldout_j']:.4g} |")
     lines += ["", "## Calibration (relative change from nominal)", ""]
     lines += [f"- {k}: {100 * v['relative']:+.2f} % ± {100 * v['stderr']:.2f} %"

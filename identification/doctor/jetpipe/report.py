@@ -14,7 +14,7 @@ import numpy as np
 
 from pneumatics.io import atomic_save, atomic_write_json, atomic_write_text
 
-from identification.base.reporting import finding_line, jsonable, pyplot, save_figure, summary_head
+from identification.base.reporting import finding_line, jsonable, pyplot, save_figure, summary_head, with_error
 
 from .diagnose import fitted_effects
 from .hypotheses import CALIBRATION, calibrated_cfg
@@ -148,7 +148,7 @@ def _markdown(report: dict, pngs) -> str:
         lines += [("| effect | where | regime (measured) | parameters | held-out NRMSE before → after | inclusion | "
                   "alternatives |"), "| --- | --- | --- | --- | --- | --- | --- |"]
         for f in report["findings"]:
-            par = "; ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in f["parameters"].items())
+            par = "; ".join(with_error(k, v, 4, 2) for k, v in f["parameters"].items())
             n, r = f["heldout_nrmse"], f["regime_detail"]
             reg = f["regime"] + (f" ({100 * r['share']:.0f} % of the improvement in {100 * r['cover']:.0f} % of "
                                  f"the samples)" if r["feature"] else "")
@@ -177,7 +177,7 @@ def _markdown(report: dict, pngs) -> str:
     lines += ["", "## Every hypothesis (first round, fitted with the calibration, scored on the held-out part)", "",
               "| hypothesis | parameters | held-out J | held-out NRMSE |", "| --- | --- | --- | --- |"]
     for h in report["hypotheses"]:
-        par = "; ".join(f"{k} = {v['value']:.4g} ± {v['stderr']:.2g}" for k, v in h["parameters"].items())
+        par = "; ".join(with_error(k, v, 4, 2) for k, v in h["parameters"].items())
         lines.append(f"| {h['name']} | {par} | {h['heldout_j']:.4g} | {h['heldout_nrmse']:.4f} |")
     lines += ["", "## Calibration (relative change from nominal)", ""]
     lines += [f"- {k}: {100 * v['relative']:+.1f} % ± {100 * v['stderr']:.1f} %" for k, v in report["calibration_change"].items()]
