@@ -89,6 +89,16 @@ class Experiment:
         return int(round(1.0 / (self.rate_hz * FINE_DT)))
 
 
+def fine_pressures(exp: Experiment, mods, chambers=None) -> np.ndarray:
+    """(F, n) the measured pressures [Pa] of ``chambers`` (default all) on the 1 ms grid, from
+    their light spline at the sample times, with the chamber model's (``mods``) sensor offsets
+    removed."""
+    cs = np.arange(exp.p_at_t.shape[1]) if chambers is None else np.asarray(chambers, int)
+    p = np.column_stack([np.interp(exp.fine_t, exp.t, exp.p_at_t[:, c]) for c in cs])
+    offset = mods.sensor_offsets(exp.clock_at(fine=True))
+    return p if offset is None else p - offset[..., cs]
+
+
 def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None, checked: bool = False) -> Experiment:
     """Validate ``rec`` against ``robot`` and prepare it (raises RecordingError on bad data).
     ``checked``: the whole recording ``rec`` was cut from already passed these checks

@@ -40,7 +40,7 @@ from identification.base.smoothing import discrepancy_lambda
 
 from pneumatics.medium import orifice_flow
 
-from .data import FINE_DT, Experiment
+from .data import FINE_DT, Experiment, fine_pressures
 from .pneumatic import ChamberModel, PneumaticMods, drive_side_lengths, effective_commands, model_areas
 from .receiver import receiver_trajectory
 
@@ -128,11 +128,7 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
     tab, gas = exp.robot.tables, exp.robot.tables.gas
     S = exp.n_sub
     F = exp.fine_t.size
-    C = tab.n_chambers
-    p = np.column_stack([np.interp(exp.fine_t, exp.t, exp.p_at_t[:, c]) for c in range(C)])
-    offset = mods.sensor_offsets(exp.clock_at(fine=True))
-    if offset is not None:
-        p = p - offset
+    p = fine_pressures(exp, mods)
     model = ChamberModel(exp.robot, mods, 1)
     vol = model.dead + tab.area * model.travel(drive_side_lengths(exp, mods))       # (F, C)
     rt, n, room = model.rt, model.n, tab.room_pa

@@ -28,7 +28,7 @@ from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
 
 from .chamber_kernel import step_batch
-from .data import FINE_DT, Experiment
+from .data import FINE_DT, Experiment, fine_pressures
 from .receiver import measured_supply_flow, receiver_trajectory
 from .thermal import gas_temperatures
 
@@ -357,12 +357,8 @@ def drive_side_lengths(exp: Experiment, mods: PneumaticMods) -> np.ndarray:
     if mods.backlash_rad is None or not np.any(mods.backlash_rad > 0):
         return exp.fine_length
     robot, tab = exp.robot, exp.robot.tables
-    p = np.column_stack([np.interp(exp.fine_t, exp.t, exp.p_at_t[:, c]) for c in range(tab.n_chambers)])
-    offset = mods.sensor_offsets(exp.clock_at(fine=True))
-    if offset is not None:
-        p = p - offset
     from pneumatics.chamber import actuator_force
-    force = actuator_force(tab, p)
+    force = actuator_force(tab, fine_pressures(exp, mods))
     width = BACKLASH_FORCE_FRACTION * tab.area_a * (tab.supply_pa - tab.room_pa)
     gear = robot.model.actuator_gear[robot.actuator_ids, 0]
     return exp.fine_length + gear * 0.5 * mods.backlash_rad * np.tanh(force / width)

@@ -21,7 +21,7 @@ try:
 except ImportError:  # pragma: no cover - numba is a dependency; the reference then runs
     njit = None
 
-from .data import FINE_DT, Experiment
+from .data import FINE_DT, Experiment, fine_pressures
 
 
 def experiment_key(exp: Experiment) -> str:
@@ -104,11 +104,7 @@ def path(total, dt, c: CompressorCycling, starts, p0, run0, rt, room) -> np.ndar
 def measured_supply_flow(exp: Experiment, model, u_fine: np.ndarray, supply_pa) -> np.ndarray:
     """(F,) the total flow [kg/s] the valves draw on the 1 ms grid at the measured pressures
     (sensor offsets of the model removed) from a supply at ``supply_pa`` (scalar or (F,))."""
-    mods, tab = model.mods, model.tab
-    p = np.column_stack([np.interp(exp.fine_t, exp.t, exp.p_at_t[:, c]) for c in range(tab.n_chambers)])
-    offset = mods.sensor_offsets(exp.clock_at(fine=True))
-    if offset is not None:
-        p = p - offset
+    p = fine_pressures(exp, model.mods)
     a_s, _ = model.areas(u_fine[: p.shape[0]])
     ps = supply_pa if np.isscalar(supply_pa) else np.asarray(supply_pa)[: p.shape[0], None]
     return np.maximum(orifice_flow(a_s, ps, p, model.gas)[0], 0.0).sum(axis=1)

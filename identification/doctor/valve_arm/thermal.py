@@ -21,7 +21,7 @@ import numpy as np
 from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
 
-from .data import FINE_DT, Experiment
+from .data import FINE_DT, Experiment, fine_pressures
 
 try:
     from numba import njit
@@ -35,11 +35,7 @@ def _inputs(exp: Experiment, mods, chambers, u_fine: np.ndarray):
     tab, gas = exp.robot.tables, exp.robot.tables.gas
     cs = np.asarray(chambers, int)
     F = exp.fine_t.size
-    p = np.column_stack([np.interp(exp.fine_t, exp.t, exp.p_at_t[:, c]) for c in cs])
-    offset = mods.sensor_offsets(exp.clock_at(fine=True))
-    if offset is not None:
-        p = p - offset[..., cs]
-    p = np.maximum(p, 1e3)
+    p = np.maximum(fine_pressures(exp, mods, cs), 1e3)
     act = tab.actuator_of_chamber[cs]
     x = np.clip(exp.fine_length[:, act] - tab.length_zero[act], 0.0, tab.stroke[act])
     travel = np.where(tab.is_a[cs], x, tab.stroke[act] - x)
