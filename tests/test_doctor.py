@@ -79,9 +79,6 @@ def test_bouc_wen_valve_hysteresis_is_named_and_located():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="since 78cb64a (a valve leak's rival, the external leak, fitted beside it "
-                   "whatever its score) the orifice external leak takes 0.21 of elbow.a's held-out residual, just over "
-                   "the 0.2 keep rule, and is named; the issue's published samples do not all stay right")
 def test_effect_outside_the_vocabulary_lands_in_unexplained_located():
     _, rep = doctor("case_2e6a35dc")
     assert rep["findings"] == []

@@ -254,3 +254,29 @@ def test_robust_ceiling_is_median_plus_three_robust_deviations():
     assert robust_ceiling(x) == pytest.approx(11.0, abs=0.1)
     assert robust_ceiling(np.exp(x / 10), log=True) == pytest.approx(np.exp(1.1), rel=0.02)
     assert robust_ceiling(x[: SPREAD_MIN_PLACES - 1]) == -np.inf
+
+
+def test_a_weak_finding_that_leaves_as_much_as_it_took_is_a_projection():
+    """A finding that takes 0.21 of its chamber's held-out residual and leaves 0.21 there
+    through the valve opening (an orifice external leak fitted to a supply area that shrinks
+    with pressure, published sample case_2e6a35dc) is another law's projection; a strong one
+    leaving the same, or a remainder through the inputs its own family acts through, is not."""
+    from types import SimpleNamespace
+
+    from identification.doctor.valve_arm.flex_check import REMAINDER_FLOOR, leaves_as_much
+    from identification.doctor.valve_arm.flexible import Correction
+
+    def corr(**alone):
+        return Correction({"actuator": "elbow", "chamber": "a"}, max(alone.values()), alone, alone,
+                          np.zeros(1), np.zeros(1), [2])
+
+    def finding(family, gain):
+        return SimpleNamespace(family=family, scored=SimpleNamespace(heldout_gain=gain))
+
+    weak, strong = finding("external_leak", 0.214), finding("external_leak", 0.68)
+    assert leaves_as_much(corr(**{"valve opening": 0.21, "pressure level": 0.08}), weak)
+    assert not leaves_as_much(corr(**{"valve opening": 0.24}), strong)
+    assert not leaves_as_much(corr(**{"pressure level": 0.3, "valve opening": 0.05}), weak)
+    assert not leaves_as_much(corr(**{"valve opening": REMAINDER_FLOOR - 0.01}), finding("valve_leak", 0.1))
+    # a robot whose clean chambers spread wider sets the floor higher (flexible.paying)
+    assert not leaves_as_much(corr(**{"valve opening": 0.21}), weak, floor=0.4)
