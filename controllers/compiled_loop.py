@@ -183,13 +183,13 @@ def run_rows(k0, k1, n_rows, n_sub, t0, rate_hz, average, noisy, noise, angle_sd
 
     ``noisy``: add ``noise`` (k1 - k0, n_joint + n_ch), standard normals of these rows (the
     joints' before the chambers'), times ``angle_sd`` [rad] and ``pressure_sd`` [Pa];
-    ``sensors``: (qadr, dadr, q_offset, p_offset, p_drift, p_drift_tau) of Simulation.sensor_maps;
+    ``sensors``: (qadr, dadr, q_offset, p_offset, p_drift, p_drift_tau, q_gain) of Simulation.sensor_maps;
     ``step_args``: Simulation.physics_step_args; ``command_args``: Simulation.command_step_args.
     Returns (rows done, status): k1 and OK or CLIPPED, or the row whose commands
     command_step refused (NOT_FINITE, UNIT_SLIP; the commands left in ``rec_u`` of that row)
     with the simulation unchanged by them.
     """
-    qadr, dadr, q_off, p_off, p_drift, p_tau = sensors
+    qadr, dadr, q_off, p_off, p_drift, p_tau, q_gain = sensors
     pressure, act, glob, qpos, qvel, sums = (step_args[3], step_args[8], step_args[10], step_args[11],
                                              step_args[12], step_args[13])
     n_j, n_ch, nq = qadr.size, pressure.size, qpos.size
@@ -204,15 +204,15 @@ def run_rows(k0, k1, n_rows, n_sub, t0, rate_hz, average, noisy, noise, angle_sd
         t = t0 + k / rate_hz
         if average and k > 0:  # Simulation.take_mean: the sums hold this period's n_sub steps
             for j in range(n_j):
-                q_seen[j] = sums[n_ch + qadr[j]] / n_sub + q_off[j]
-                qd[j] = sums[n_ch + nq + dadr[j]] / n_sub
+                q_seen[j] = q_gain[j] * (sums[n_ch + qadr[j]] / n_sub) + q_off[j]
+                qd[j] = q_gain[j] * (sums[n_ch + nq + dadr[j]] / n_sub)
             for i in range(n_ch):
                 p_seen[i] = sums[i] / n_sub + p_off[i]
             sums[:] = 0.0
         else:  # Simulation.observe
             for j in range(n_j):
-                q_seen[j] = qpos[qadr[j]] + q_off[j]
-                qd[j] = qvel[dadr[j]]
+                q_seen[j] = q_gain[j] * qpos[qadr[j]] + q_off[j]
+                qd[j] = q_gain[j] * qvel[dadr[j]]
             for i in range(n_ch):
                 p_seen[i] = pressure[i] + p_off[i]
         if drifting:  # a warming-up pressure sensor (effects.pressure_sensor_offset.offset_at)

@@ -133,6 +133,7 @@ class Simulation:
         self._p_drift, self._p_drift_tau = self.effects.drift_arrays(robot)
         self._drifting = bool(self._p_drift.any())  # decided once: observe() is on the control loop
         self._q_offset = self.effects.joint_array(robot, "angle_offset_rad")
+        self._q_gain = 1.0 + self.effects.joint_array(robot, "angle_scale_error")  # effects.angle_sensor_offset
         self._fric = self.effects.friction_table(robot, self.model)
         # heat_transfer: those chambers carry a gas temperature [K] and step in Python
         self._thermal, self._conductance = self.effects.heat_arrays(robot)
@@ -219,8 +220,8 @@ class Simulation:
 
     def observe(self) -> Observation:
         """Noise-free, instantaneous sensor values now (with any sensor-offset effects)."""
-        return Observation(self.time, self.data.qpos[self._qadr] + self._q_offset,
-                           self.data.qvel[self._dadr].copy(), self.pressure + self.pressure_offset_now())
+        return Observation(self.time, self._q_gain * self.data.qpos[self._qadr] + self._q_offset,
+                           self._q_gain * self.data.qvel[self._dadr], self.pressure + self.pressure_offset_now())
 
     def forces(self) -> np.ndarray:
         """(n_act,) actuator forces [N] (torques [N m] for vanes) from the current pressures."""
@@ -405,8 +406,9 @@ class Simulation:
     def sensor_maps(self) -> tuple:
         """(qpos addresses (n_joint,), qvel addresses (n_joint,), angle offsets (n_joint,) [rad],
         pressure offsets (n_ch,) [Pa], their warm-up drifts (n_ch,) [Pa] and time constants
-        (n_ch,) [s], 0 without): how :meth:`observe` and :meth:`take_mean` read the state."""
-        return self._qadr, self._dadr, self._q_offset, self._p_offset, self._p_drift, self._p_drift_tau
+        (n_ch,) [s], 0 without; the angle sensors' gains 1 + scale_error (n_joint,)): how
+        :meth:`observe` and :meth:`take_mean` read the state."""
+        return self._qadr, self._dadr, self._q_offset, self._p_offset, self._p_drift, self._p_drift_tau, self._q_gain
 
     def sync(self):
         """Actuator lengths at the current MuJoCo state; integrate the pressures up to it."""
@@ -487,5 +489,5 @@ class Simulation:
         mean = self.sums / self.steps_summed
         self.sums[:] = 0.0
         self.steps_summed = 0
-        return Observation(self.time, mean[n_ch:n_ch + nq][self._qadr] + self._q_offset,
-                           mean[n_ch + nq:][self._dadr], mean[:n_ch] + self.pressure_offset_now())
+        return Observation(self.time, self._q_gain * mean[n_ch:n_ch + nq][self._qadr] + self._q_offset,
+                           self._q_gain * mean[n_ch + nq:][self._dadr], mean[:n_ch] + self.pressure_offset_now())

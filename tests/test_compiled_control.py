@@ -98,6 +98,17 @@ def test_model_based_pidf_without_averaging_with_sensor_offsets_and_hysteresis(r
     assert pair[0][1]["n_summed"] == round(SECONDS * 100) * 10  # the sums ran on, as the Python loop's do
 
 
+def test_an_angle_sensor_with_a_gain_error_reads_alike_on_both_paths(robots):
+    """angle_sensor_offset, offset_and_scale form: both paths read (1 + g) q + offset and
+    (1 + g) qd, averaged over the period or not."""
+    robot = robots["arm2"]
+    effects = EffectSet().add("angle_sensor_offset", "elbow", {"offset_rad": 0.01, "scale_error": 0.03},
+                              form="offset_and_scale")
+    for average in (True, False):
+        pair = _both(Simulation(robot, effects=effects), lambda: _controller(robot, "pidf"), average=average, seed=4)
+        _assert_same(pair)
+
+
 def test_a_warming_up_pressure_sensor_reads_alike_on_both_paths(robots):
     """The drift is evaluated at the simulation's time on the Python path and at the row's time
     t0 + k / rate in the compiled loop: equal up to the clock's rounding, so the recordings

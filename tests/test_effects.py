@@ -177,6 +177,25 @@ def test_sensor_offsets_show_in_observations_only():
     assert obs.p[2] == 4e5 + 5000.0 and obs.q[0] == 0.01 and sim.pressure[2] == 4e5
 
 
+def test_an_angle_sensor_with_a_gain_error_reads_its_law():
+    """angle_sensor_offset, offset_and_scale form: q_measured = q + offset + scale_error q, the
+    rate scaled alike; the physics never sees it, and the doctor's inverse gives q back."""
+    from pneumatics.effects.angle_sensor_offset import reading_error, true_angle
+
+    robot = load_robot("arm2")
+    effects = EffectSet().add("angle_sensor_offset", "elbow", {"offset_rad": -0.02, "scale_error": 0.05},
+                              form="offset_and_scale")
+    sim = Simulation(robot, effects=effects)
+    sim.reset(pressure_pa=4e5)
+    sim.set_command([5, 5, 9, 1])
+    sim.step(75)  # the elbow swinging, short of its limit
+    obs, q, qd = sim.observe(), sim.data.qpos[1], sim.data.qvel[1]
+    assert abs(q) > 0.05 and abs(qd) > 0.05  # the elbow moved
+    assert obs.q[1] == pytest.approx(q + reading_error(q, -0.02, 0.05)) == pytest.approx(1.05 * q - 0.02)
+    assert obs.qd[1] == pytest.approx(1.05 * qd) and obs.q[0] == sim.data.qpos[0]
+    assert true_angle(obs.q[1], -0.02, 0.05) == pytest.approx(q)
+
+
 def test_a_warming_up_pressure_sensor_drifts_by_the_simulation_clock():
     """pressure_sensor_offset, warm_up_drift: the reading's offset is offset + drift
     (1 - exp(-t / tau)), t the simulation's time; the physics never sees it."""

@@ -59,6 +59,9 @@ class EffectSet:
     (1 - exp(-t / tau)), t the simulation's time (pressure_sensor_offset, warm_up_drift form)"""
     angle_offset_rad: dict = field(default_factory=dict)
     """joint -> sensor reads true + offset [rad] (angle_sensor_offset)"""
+    angle_scale_error: dict = field(default_factory=dict)
+    """joint -> the sensor's gain error: it reads (1 + scale_error) q + offset, its rate
+    (1 + scale_error) qd [-] (angle_sensor_offset, offset_and_scale form)"""
     supply_droop_pa_per_kg_s: float = 0.0
     """supply pressure drop per kg/s of the total flow the valves draw (supply_droop)"""
     supply_droop_tau_s: float = 0.0
@@ -219,5 +222,6 @@ class EffectSet:
         return not any((self.friction, self.valve_leak_m2, self.valve_leak_exhaust_m2, self.valve_underlap, self.external_leak_m2, self.piston_leak_m2,
                         self.external_leak_laminar_kg_s_pa, self.piston_leak_laminar_kg_s_pa,
                         self.valve_hysteresis_v, self.pressure_offset_pa, self.pressure_drift, self.angle_offset_rad,
+                        self.angle_scale_error,
                         self.supply_droop_pa_per_kg_s, self.supply_receiver_m3, self.valve_lag_s, self.valve_slew_s, self.line_dynamics, self.end_stop,
                         self.heat_transfer, self.backlash))

@@ -131,6 +131,7 @@ TORQUE_CASES = [
      0.025, 2.0),
     ("viscous_friction", "linear", "elbow", {"viscous_nm_s_per_rad": 0.1}, 0.01, 5.0),
     ("angle_sensor_offset", "additive", "shoulder", {"offset_rad": 0.05}, 0.01, 5.0),
+    ("angle_sensor_offset", "offset_and_scale", "shoulder", {"offset_rad": 0.02, "scale_error": 0.04}, 0.01, 5.0),
 ]
 
 

@@ -168,6 +168,18 @@ def _fine_geometry(exp: Experiment, light: list):
     exp.fine_length = actuator_lengths(robot, fine_q)
 
 
+def with_true_lengths(exp: Experiment, offset_rad: np.ndarray, scale_error: np.ndarray) -> Experiment:
+    """``exp`` with its actuator lengths on the 1 ms grid (what the pressure replays read of the
+    motion) taken at the true angles of sensors that read q + offset + scale_error q
+    (effects.angle_sensor_offset); the angles stay as read."""
+    import dataclasses
+
+    from pneumatics.effects.angle_sensor_offset import true_angle
+
+    q = true_angle(exp.fine_q, np.asarray(offset_rad, float), np.asarray(scale_error, float))
+    return dataclasses.replace(exp, fine_length=actuator_lengths(exp.robot, q))
+
+
 def actuator_lengths(robot: Robot, q: np.ndarray) -> np.ndarray:
     """(F, n_act) actuator lengths at joint positions q (F, J), as MuJoCo computes them."""
     m = robot.model

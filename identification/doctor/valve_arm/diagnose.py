@@ -30,7 +30,8 @@ from pneumatics.robot import Robot
 
 from .calibrate import fit_chambers, pressure_sigma
 from .data import MIN_ROWS, pool, prepare, split
-from .final_fit import final_calibration, final_joint_fit, scale_stderr, withdraw_worsening, worsening
+from .final_fit import (final_calibration, final_joint_fit, follow_angle_sensors, scale_stderr, withdraw_worsening,
+                        worsening)
 from .fitted_model import fitted_model
 from .locate import Located, locate, mods_without_all
 from .mechanics import fit_rigid_body, torque_data
@@ -67,6 +68,7 @@ def _diagnose(robot: Robot, recordings, holdouts, progress) -> dict:
     start_torque_balance(run)
     search_mechanical(run, say)
     final_joint_fit(run)
+    follow_angle_sensors(run)
     final_cal, cal_se, flags = final_calibration(run)
     say("locating regimes and windows")
     located = locate(run, flags)
@@ -76,6 +78,7 @@ def _diagnose(robot: Robot, recordings, holdouts, progress) -> dict:
         say(f"withdrawing {worse[0].family} at {worse[0].where}: it makes the held-out replay worse")
         withdraw_worsening(run, worse[0])
         final_joint_fit(run)
+        follow_angle_sensors(run)
         final_cal, cal_se, flags = final_calibration(run)
         located = locate(run, flags)
         replays = _prove(run)
@@ -134,7 +137,9 @@ def _prove(run: DoctorRun) -> dict:
     mm_final.end_stops = {h.joint: (h.fixed["stop_rad"]["value"], h.fixed["side_sign"]["value"])
                           for h in run.kept_mech if h.family == "end_stop"}
     add_breakaway(mm_final, run.findings, len(robot.joint_names))
-    base_replay = coupled_replay(held, mods_without_all(run.mods, run.findings), mm_base)
+    # before the findings: the chambers as calibrated on the angles as read
+    base_held, base_mods = (held, run.mods) if run.read is None else (run.read[1], run.read[2])
+    base_replay = coupled_replay(base_held, mods_without_all(base_mods, run.findings), mm_base)
     nominal_replay = coupled_replay(held, run.nominal, MechMods())
     final_replay = coupled_replay(held, run.mods, mm_final)
     nb, nf = base_replay.nrmse(), final_replay.nrmse()

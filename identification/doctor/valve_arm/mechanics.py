@@ -74,6 +74,7 @@ class TorqueData:
     fixed: dict = None          # calibration parameters kept nominal -> why (calibrate_rigid_body)
     calibration: Fit = None     # calibrate_rigid_body's result, whose inertias the effect fits hold
     joint_ok: np.ndarray = None  # (N, J) False where a joint's equation is left out (a coupled joint near its limit)
+    dtau_drate: np.ndarray = None  # (N, J, J) d tau_inv / d g_k: joint k's rates read (1 + g_k) times (angle sensor gain)
 
     def mask(self, x: np.ndarray) -> np.ndarray:
         """x (N, J, ...) with the equations ``joint_ok`` leaves out set to zero (a zero row of
@@ -210,6 +211,14 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
         dq[k] = 1e-5
         plus, _ = _inverse(model, qadr, dadr, exp.q_s + dq, exp.qd, exp.qdd)
         dtau_dq[:, :, k] = (plus - tau_inv) / 1e-5
+    # an angle sensor's gain error scales the rates differentiated from its angles as well
+    # (effects.angle_sensor_offset, offset_and_scale form): tau_inv's change per unit gain
+    dtau_drate = np.empty_like(dtau_dq)
+    for k in range(len(dadr)):
+        gain = np.ones(len(dadr))
+        gain[k] += 1e-5
+        plus, _ = _inverse(model, qadr, dadr, exp.q_s, exp.qd * gain, exp.qdd * gain)
+        dtau_drate[:, :, k] = (plus - tau_inv) / 1e-5
     rng_ = robot.joint_range()
     near = (exp.q_s < rng_[:, 0] + limit_margin_rad) | (exp.q_s > rng_[:, 1] - limit_margin_rad)   # (N, J)
     # a joint's equation is left out while a joint it is coupled to through the mass matrix is
@@ -227,7 +236,7 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
     td = TorqueData(tau_act, tau_inv, np.stack(regs, axis=2), names, np.array(lo), np.array(hi), valid, dtau_dq,
                     dtau_dp, exp.rate_hz, lowpass, tuple(exp.breaks), joint_ok=joint_ok)
     td.tau_act, td.tau_inv, td.regressors = td.mask(tau_act), td.mask(tau_inv), td.mask(td.regressors)
-    td.dtau_dq, td.dtau_dp = td.mask(dtau_dq), td.mask(dtau_dp)
+    td.dtau_dq, td.dtau_dp, td.dtau_drate = td.mask(dtau_dq), td.mask(dtau_dp), td.mask(dtau_drate)
     return td
 
 

@@ -13,6 +13,7 @@ import mujoco
 import numpy as np
 
 from pneumatics.chamber import actuator_force
+from pneumatics.effects.angle_sensor_offset import reading_error, true_angle
 from pneumatics.effects.backlash import addresses, backlash_model, set_drive_state
 from pneumatics.effects.end_stop import penetration
 from pneumatics.effects.friction import friction_torque
@@ -39,6 +40,7 @@ class MechMods:
     stiction_extra_nm: np.ndarray = None
     viscous_nm_s: np.ndarray = None
     angle_offset_rad: np.ndarray = None
+    angle_scale_error: np.ndarray = None               # the angle sensor's gain error (offset_and_scale form)
     end_stop_nm_per_rad: np.ndarray = None             # stiffness of an end stop (end_stop)
     end_stop_nm_s_per_rad: np.ndarray = None           # its damping while in contact
     end_stops: dict = field(default_factory=dict)      # joint index -> (stop_rad, side +1/-1)
@@ -132,8 +134,9 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
     datas = [mujoco.MjData(model) for _ in range(W)]
     fq = exp.fine_q
     offset = mmods.angle_offset_rad if mmods.angle_offset_rad is not None else np.zeros(J)
-    q0 = fq[starts * S] - offset
-    qd0 = (fq[starts * S + 1] - fq[starts * S - 1]) / (2 * FINE_DT)
+    scale = mmods.angle_scale_error if mmods.angle_scale_error is not None else np.zeros(J)
+    q0 = true_angle(fq[starts * S], offset, scale)
+    qd0 = (fq[starts * S + 1] - fq[starts * S - 1]) / (2 * FINE_DT) / (1.0 + scale)
     p = initial_pressure(exp, starts, pmods)
     sign = np.zeros((W, J))
     if gaps:  # each drive starts in contact on the side its cylinder pushes
@@ -186,7 +189,7 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
             out_q[:, h] = acc_q / S if exp.averaged else acc_q
             acc_p[:] = 0
             acc_q[:] = 0
-    out_q += offset
+    out_q[:] = out_q + reading_error(out_q, offset, scale)  # what the angle sensor reads
     idx = starts[:, None] + 1 + np.arange(H)[None]
     offset = pmods.sensor_offsets(exp.clock_at()[idx])
     if offset is not None:

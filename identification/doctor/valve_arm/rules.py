@@ -98,6 +98,11 @@ class DoctorRun:
     """the rigid body's calibration fit"""
     findings: list = field(default_factory=list)
     """Findings kept so far, in the order they were found"""
+    read: tuple = None
+    """(training, held-out) experiments with the actuator lengths of the angles as read and the
+    chamber model calibrated on them, kept while ``exp``, ``held`` and ``mods`` take the lengths
+    at the true angles of a kept angle-sensor finding (final_fit.follow_angle_sensors): the
+    model before the findings is the one calibrated on the angles as read"""
     tried: set = field(default_factory=set)
     """hypothesis labels already kept or ruled out"""
     base_extra: tuple | None = None

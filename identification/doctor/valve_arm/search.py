@@ -235,6 +235,8 @@ def _keep_mechanical(run: DoctorRun, finding: Finding, scored: list, base_h, blo
     best = finding.scored
     run.tried.update(s.hyp.label for s in scored if s.hyp.family == best.hyp.family
                      and s.hyp.where.get("actuator") == best.hyp.where.get("actuator") and "chamber" in s.hyp.where)
+    # the family's other forms at the same place (an angle offset with or without its gain)
+    run.tried.update(s.hyp.label for s in scored if s.hyp.family == best.hyp.family and s.hyp.where == best.hyp.where)
     run.tried.add(best.hyp.label)
     run.base_extra = stack_terms(run.base_extra, best.hyp.regressor(run.exp, run.td), best.hyp)
     run.kept_mech.append(best.hyp)
@@ -268,6 +270,8 @@ def accept_best(candidates: list, keep: float) -> Finding | None:
         lower = np.array([p[2] for p in best.hyp.params])
         if np.any((lower > 0) & (values <= lower * (1 + 1e-6))):
             continue  # held at its least physical value (an end stop softer than a stop)
+        if best.hyp.kind == "mechanical" and at_plausibility_cap(best.hyp, values):
+            continue  # the linear torque fit wants more than the sensor can be off by
         # parsimony: a candidate with fewer parameters at the same place that explains nearly
         # as much wins (stiction = Coulomb + breakaway is preferred only if it pays clearly)
         richer = best
@@ -278,10 +282,24 @@ def accept_best(candidates: list, keep: float) -> Finding | None:
         alts = [s.hyp.family for s in candidates if s is not best and s.hyp.where == best.hyp.where
                 and s.hyp.family != best.hyp.family and len(s.hyp.params) <= len(best.hyp.params)
                 and s.heldout_gain >= ISOLABLE * best.heldout_gain]
-        if richer is not best:  # significant in training, not worth it on held-out data
-            alts.append(richer.hyp.family)
+        if richer is not best and richer.hyp.family != best.hyp.family:  # significant in training,
+            alts.append(richer.hyp.family)                                # not worth it on held-out data
         return Finding(best, best.hyp.family, best.hyp.where, finding_params(best), best.heldout_gain, alts)
     return None
+
+
+def at_plausibility_cap(hyp, values) -> bool:
+    """Whether a torque-balance parameter sits at a finite, nonzero bound of its hypothesis:
+    those bounds cap what a sensor can plausibly be off by (an angle sensor's gain,
+    hypotheses.ANGLE_GAIN_MAX; half a bar of pressure offset), and bounded least squares
+    still gives the value an error bar there."""
+    caps = np.array([[p[2], p[3]] for p in hyp.params], float)            # (k, 2) lower, upper
+    capped = np.isfinite(caps) & (caps != 0)
+    caps = np.where(capped, caps, 0.0)
+    tol = 1e-6 * np.abs(caps)
+    at_lo = capped[:, 0] & (values <= caps[:, 0] + tol[:, 0])
+    at_hi = capped[:, 1] & (values >= caps[:, 1] - tol[:, 1])
+    return bool(np.any(at_lo | at_hi))
 
 
 #: a chamber counts as improved (worsened) by a supply hypothesis when its held-out mean square
@@ -477,7 +495,7 @@ def finding_params(s: Scored) -> dict:
 #: each torque-balance parameter the doctor reports -> its MechMods attribute (replay.MechMods);
 #: None: not a MechMods term (a pressure-sensor offset acts on the chamber model)
 MECH_ATTRS = {"coulomb_nm": "coulomb_nm", "breakaway_extra_nm": "stiction_extra_nm",
-              "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad",
+              "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad", "scale_error": "angle_scale_error",
               "offset_pa": None, "drift_pa": None, "stiffness_nm_per_rad": "end_stop_nm_per_rad",
               "damping_nm_s_per_rad": "end_stop_nm_s_per_rad"}
 
