@@ -31,6 +31,17 @@ def final_joint_fit(run: DoctorRun) -> None:
                    if not passes_keep_rule(vals[h.keep_mask()], ses[h.keep_mask()])]
         if not failing:
             break
+        # a richer form whose extra parameter the final fit does not hold (an angle sensor's
+        # gain within its error bar) falls back to its family's first form, fitted again
+        richer = [h for h in failing if _first_form(run, h) is not None]
+        if richer:
+            for h, vals, ses in run.finals:
+                if h in richer:
+                    _fall_back(run, h, f"fails the keep rule at the final joint fit: a parameter within {MIN_T:g} "
+                                       f"standard errors of 0", {name: {"value": float(v), "stderr": float(e)}
+                                                                 for (name, *_), v, e in zip(h.params, vals, ses)})
+            drop_torque_terms(run, [])
+            continue
         _withdraw_failing(run, failing, replay_offset)
     for h, vals, ses in run.finals:
         if h.family == "pressure_sensor_offset" and h not in run.refine:
@@ -95,18 +106,28 @@ def withdraw_worsening(run: DoctorRun, f) -> None:
     next coupled replay judges in turn: the torque balance alone chose the richer form."""
     why = (f"makes the held-out coupled replay worse: NRMSE of {f.nrmse['channel']} "
            f"{f.nrmse['before']:.3g} before, {f.nrmse['after']:.3g} after")
-    run.withdrawn.append({"effect": f.family, "where": f.where, "final_parameters": dict(f.params), "why": why})
-    old = f.scored.hyp
-    simpler = _first_form(run, old)
-    if simpler is None:
-        run.findings.remove(f)
-        drop_torque_terms(run, [old])
+    if _first_form(run, f.scored.hyp) is not None:
+        _fall_back(run, f.scored.hyp, why)
+        drop_torque_terms(run, [])
         return
-    run.withdrawn[-1].update(form=old.form, why=why + f"; its {old.form} form withdrawn, the first form kept")
-    f.scored.hyp = simpler
-    f.params = dict(simpler.fixed)
-    run.kept_mech = [simpler if h is old else h for h in run.kept_mech]
-    drop_torque_terms(run, [])
+    run.withdrawn.append({"effect": f.family, "where": f.where, "final_parameters": dict(f.params), "why": why})
+    run.findings.remove(f)
+    drop_torque_terms(run, [f.scored.hyp])
+
+
+def _fall_back(run: DoctorRun, hyp, why: str, params: dict | None = None) -> None:
+    """The kept torque term ``hyp`` (a richer form) replaced by its family's first form, in the
+    finding and the kept terms; the richer form's record (``params``: its final values, the
+    finding's by default) goes to ``run.withdrawn``."""
+    simpler = _first_form(run, hyp)
+    f = _owner(run.findings, hyp, run.refine)
+    if f is not None:
+        run.withdrawn.append({"effect": f.family, "where": f.where, "form": hyp.form,
+                              "final_parameters": params or dict(f.params),
+                              "why": f"{why}; its {hyp.form} form withdrawn, the first form kept"})
+        f.scored.hyp = simpler
+        f.params = dict(simpler.fixed)
+    run.kept_mech = [simpler if h is hyp else h for h in run.kept_mech]
 
 
 def _first_form(run: DoctorRun, hyp):
