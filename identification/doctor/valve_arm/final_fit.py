@@ -33,7 +33,7 @@ def final_joint_fit(run: DoctorRun) -> None:
             break
         # a richer form whose extra parameter the final fit does not hold (an angle sensor's
         # gain within its error bar) falls back to its family's first form, fitted again
-        richer = [h for h in failing if _first_form(run, h) is not None]
+        richer = [h for h in failing if _may_fall_back(run, h)]
         if richer:
             for h, vals, ses in run.finals:
                 if h in richer:
@@ -106,7 +106,7 @@ def withdraw_worsening(run: DoctorRun, f) -> None:
     next coupled replay judges in turn: the torque balance alone chose the richer form."""
     why = (f"makes the held-out coupled replay worse: NRMSE of {f.nrmse['channel']} "
            f"{f.nrmse['before']:.3g} before, {f.nrmse['after']:.3g} after")
-    if _first_form(run, f.scored.hyp) is not None:
+    if _may_fall_back(run, f.scored.hyp):
         _fall_back(run, f.scored.hyp, why)
         drop_torque_terms(run, [])
         return
@@ -128,6 +128,14 @@ def _fall_back(run: DoctorRun, hyp, why: str, params: dict | None = None) -> Non
         f.scored.hyp = simpler
         f.params = dict(simpler.fixed)
     run.kept_mech = [simpler if h is hyp else h for h in run.kept_mech]
+
+
+def _may_fall_back(run: DoctorRun, hyp) -> bool:
+    """Whether kept term ``hyp`` is a richer form whose family's first form passed the keep
+    rule at its place in the search as well (else the finding is withdrawn whole: a first form
+    the search would not have kept must not stand in, seen on humanoid38's clean shoulders)."""
+    f = _owner(run.findings, hyp, run.refine)
+    return _first_form(run, hyp) is not None and f is not None and f.first_form_pays
 
 
 def _first_form(run: DoctorRun, hyp):

@@ -231,6 +231,12 @@ def _keep_mechanical(run: DoctorRun, finding: Finding, scored: list, base_h, blo
         finding = offset_place(run, finding, scored)
     if finding.family == "coulomb_friction":
         finding = friction_named(run, finding)
+    if finding.scored.hyp.form:  # may it fall back to the first form later (final_fit._fall_back)?
+        first = next((s for s in scored if s.hyp.family == finding.family and s.hyp.where == finding.where
+                      and not s.hyp.form), None)
+        k = 0 if first is None else len(first.hyp.params)
+        finding.first_form_pays = bool(first is not None and first.heldout_gain >= MECH_KEEP
+                                       and passes_keep_rule(first.fit.values[-k:], first.fit.stderr[-k:]))
     run.findings.append(finding)
     best = finding.scored
     run.tried.update(s.hyp.label for s in scored if s.hyp.family == best.hyp.family
