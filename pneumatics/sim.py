@@ -134,6 +134,7 @@ class Simulation:
         self._drifting = bool(self._p_drift.any())  # decided once: observe() is on the control loop
         self._q_offset = self.effects.joint_array(robot, "angle_offset_rad")
         self._q_gain = 1.0 + self.effects.joint_array(robot, "angle_scale_error")  # effects.angle_sensor_offset
+        self._gained = bool((self._q_gain != 1.0).any())  # decided once, as _drifting
         self._fric = self.effects.friction_table(robot, self.model)
         # heat_transfer: those chambers carry a gas temperature [K] and step in Python
         self._thermal, self._conductance = self.effects.heat_arrays(robot)
@@ -220,8 +221,10 @@ class Simulation:
 
     def observe(self) -> Observation:
         """Noise-free, instantaneous sensor values now (with any sensor-offset effects)."""
-        return Observation(self.time, self._q_gain * self.data.qpos[self._qadr] + self._q_offset,
-                           self._q_gain * self.data.qvel[self._dadr], self.pressure + self.pressure_offset_now())
+        q, qd = self.data.qpos[self._qadr], self.data.qvel[self._dadr]  # fancy indexing: copies
+        if self._gained:
+            q, qd = self._q_gain * q, self._q_gain * qd
+        return Observation(self.time, q + self._q_offset, qd, self.pressure + self.pressure_offset_now())
 
     def forces(self) -> np.ndarray:
         """(n_act,) actuator forces [N] (torques [N m] for vanes) from the current pressures."""
@@ -489,5 +492,7 @@ class Simulation:
         mean = self.sums / self.steps_summed
         self.sums[:] = 0.0
         self.steps_summed = 0
-        return Observation(self.time, self._q_gain * mean[n_ch:n_ch + nq][self._qadr] + self._q_offset,
-                           self._q_gain * mean[n_ch + nq:][self._dadr], mean[:n_ch] + self.pressure_offset_now())
+        q, qd = mean[n_ch:n_ch + nq][self._qadr], mean[n_ch + nq:][self._dadr]
+        if self._gained:
+            q, qd = self._q_gain * q, self._q_gain * qd
+        return Observation(self.time, q + self._q_offset, qd, mean[:n_ch] + self.pressure_offset_now())

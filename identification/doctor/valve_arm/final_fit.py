@@ -38,8 +38,7 @@ def final_joint_fit(run: DoctorRun) -> None:
             for h, vals, ses in run.finals:
                 if h in richer:
                     _fall_back(run, h, f"fails the keep rule at the final joint fit: a parameter within {MIN_T:g} "
-                                       f"standard errors of 0", {name: {"value": float(v), "stderr": float(e)}
-                                                                 for (name, *_), v, e in zip(h.params, vals, ses)})
+                                       f"standard errors of 0", _final_params(h, vals, ses))
             drop_torque_terms(run, [])
             continue
         _withdraw_failing(run, failing, replay_offset)
@@ -226,11 +225,15 @@ def _owner(findings, h, refine):
     return None
 
 
+def _final_params(h, vals, ses) -> dict:
+    """Torque term ``h``'s parameters as the report gives them: name -> value and error."""
+    return {name: {"value": float(v), "stderr": float(e)} for (name, *_), v, e in zip(h.params, vals, ses)}
+
+
 def _report_final(findings, h, refine, vals, ses):
     f = _owner(findings, h, refine)
     if f is not None:
-        for (name, *_), v, e in zip(h.params, vals, ses):
-            f.params[name] = {"value": float(v), "stderr": float(e)}
+        f.params.update(_final_params(h, vals, ses))
 
 
 def _withdraw(findings, h, refine, vals, ses) -> list:
@@ -239,7 +242,5 @@ def _withdraw(findings, h, refine, vals, ses) -> list:
     if f is None:
         return []
     findings.remove(f)
-    return [{"effect": f.family, "where": f.where,
-             "final_parameters": {name: {"value": float(v), "stderr": float(e)}
-                                  for (name, *_), v, e in zip(h.params, vals, ses)},
+    return [{"effect": f.family, "where": f.where, "final_parameters": _final_params(h, vals, ses),
              "why": f"fails the keep rule at the final joint fit: a parameter within {MIN_T:g} standard errors of 0"}]

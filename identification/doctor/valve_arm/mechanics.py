@@ -205,19 +205,17 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
             regs.append(reg - base)
             lo.append(lo_)
             hi.append(hi_)
+    # tau_inv's change per unit of joint k's angle, and per unit gain of its rates: an angle
+    # sensor's gain error scales the rates differentiated from its angles as well
+    # (effects.angle_sensor_offset, offset_and_scale form)
     dtau_dq = np.empty((tau_inv.shape[0], len(dadr), len(dadr)))
-    for k in range(len(dadr)):
-        dq = np.zeros(len(dadr))
-        dq[k] = 1e-5
-        plus, _ = _inverse(model, qadr, dadr, exp.q_s + dq, exp.qd, exp.qdd)
-        dtau_dq[:, :, k] = (plus - tau_inv) / 1e-5
-    # an angle sensor's gain error scales the rates differentiated from its angles as well
-    # (effects.angle_sensor_offset, offset_and_scale form): tau_inv's change per unit gain
     dtau_drate = np.empty_like(dtau_dq)
     for k in range(len(dadr)):
-        gain = np.ones(len(dadr))
-        gain[k] += 1e-5
-        plus, _ = _inverse(model, qadr, dadr, exp.q_s, exp.qd * gain, exp.qdd * gain)
+        step = np.zeros(len(dadr))
+        step[k] = 1e-5
+        plus, _ = _inverse(model, qadr, dadr, exp.q_s + step, exp.qd, exp.qdd)
+        dtau_dq[:, :, k] = (plus - tau_inv) / 1e-5
+        plus, _ = _inverse(model, qadr, dadr, exp.q_s, exp.qd * (1.0 + step), exp.qdd * (1.0 + step))
         dtau_drate[:, :, k] = (plus - tau_inv) / 1e-5
     rng_ = robot.joint_range()
     near = (exp.q_s < rng_[:, 0] + limit_margin_rad) | (exp.q_s > rng_[:, 1] - limit_margin_rad)   # (N, J)
