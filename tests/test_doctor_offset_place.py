@@ -1,6 +1,6 @@
 """Where the doctor places a pressure-sensor offset that the torque balance sees as a cylinder
 force error (identification/doctor/valve_arm/search.py: offset_place, offset_chamber,
-fixed_offset_gains), on recordings of the random-form generator diagnosed from their CSV files
+fixed_offset_evidence), on recordings of the random-form generator diagnosed from their CSV files
 alone."""
 import pytest
 
@@ -45,3 +45,26 @@ def test_a_pressure_offset_the_free_fits_cannot_place_is_placed_by_the_torque_ba
     assert first["alternative_places"] == []
     assert first["parameters"]["offset_pa"]["value"] == pytest.approx(
         truth["effects"][0]["effective"]["offset_pa"], rel=0.15)
+
+
+def test_where_the_held_out_gains_mislead_the_calibrations_return_to_the_datasheet_places_the_offset(tmp_path):
+    """A -8.7 kPa zero offset of elbow b's transducer (random-form generator, development seed
+    300000015): neither chamber's free replay fit pays, and with the torque balance's offset put
+    into each sensor, chamber a's held-out replay gains more (0.09 against -0.05).  The first
+    calibration took the offset up by moving elbow b's scales; taken out of b's sensor they
+    return towards the datasheet (squared log departure 0.0057 against a's 0.0088), so the
+    finding names chamber b, with a kept as an alternative place (the two views disagree)."""
+    _, first = diagnosed_offset(tmp_path, 300000015, {"actuator": "elbow", "chamber": "b"})
+    assert {"actuator": "elbow", "chamber": "a"} in first["alternative_places"]
+    assert first["parameters"]["offset_pa"]["value"] < 0
+
+
+def test_calibration_departure_is_zero_on_the_datasheet_and_grows_with_any_scale():
+    from identification.doctor.valve_arm.pneumatic import PneumaticMods
+    from identification.doctor.valve_arm.search import calibration_departure
+
+    nominal = PneumaticMods.nominal(4)
+    assert calibration_departure(nominal) == 0.0
+    bent = nominal.copy(dead_volume_scale=nominal.dead_volume_scale * [1.0, 1.0, 1.1, 1.0])
+    shrunk = nominal.copy(supply_scale=nominal.supply_scale / [1.0, 1.1, 1.0, 1.0])
+    assert calibration_departure(bent) == pytest.approx(calibration_departure(shrunk)) == pytest.approx(0.0091, abs=1e-4)
