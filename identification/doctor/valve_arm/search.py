@@ -206,13 +206,28 @@ def search_mechanical(run: DoctorRun, say) -> None:
                             else stacked_regressors(run.kept_mech, held, run.td_h), block)
         for s in scored:
             heldout_torque(s, held, run.td_h, run.kept_mech, run.base_extra, base_h, block, exp, run.td, folds)
-        finding = accept_best(scored, MECH_KEEP)
+        finding = accept_best(standing_out(scored), MECH_KEEP)
         if finding is None:
             break
         if not _keep_mechanical(run, finding, scored, base_h, block):
             continue
     run.outside += outside_without_finding(robot, exp, run.td, held, run.td_h, run.findings, run.outside,
                                            run.kept_mech, run.base_extra)
+
+
+def standing_out(scored: list) -> list:
+    """The candidates whose held-out gain stands out of their own family's (and form's) gains
+    at every place of the robot (statistics.robust_ceiling; on a robot with fewer than
+    SPREAD_MIN_PLACES places of a family, all of them): the floor set per robot from the data,
+    as for the chambers' flexible corrections (flexible.paying) and the joints' yardsticks
+    (:func:`outside_without_finding`).  On humanoid38 a clean recording's angle offsets with a
+    gain took 0.2-0.5 of the torque residual at several joints each (the gain's rate term can
+    stand in for any joint's inertia or force error); a true effect stands alone."""
+    gains = {}
+    for s in scored:
+        gains.setdefault((s.hyp.family, s.hyp.form), []).append(s.heldout_gain)
+    ceiling = {k: robust_ceiling(v) for k, v in gains.items()}
+    return [s for s in scored if s.heldout_gain >= ceiling[(s.hyp.family, s.hyp.form)]]
 
 
 def _keep_mechanical(run: DoctorRun, finding: Finding, scored: list, base_h, block) -> bool:
