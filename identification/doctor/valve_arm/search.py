@@ -557,10 +557,10 @@ OFFSET_MARGIN = 0.15
 
 #: the calibration's departure from the datasheet (:func:`calibration_departure`) decides the
 #: chamber when the other chamber's is this many times larger; closer, the held-out gain does.
-#: On 23 development offsets of the random-form generator the free replay fits left at the
-#: cylinder, the held-out gain alone named the right chamber in 17, the departure alone in 19,
-#: this rule in 21; where the two disagreed, a ratio >= 1.5 was right 5 times of 5, below 1.3
-#: 1 of 4.
+#: On 25 development offsets of the random-form generator the free replay fits left at the
+#: cylinder, the held-out gain alone named the right chamber in 19, the departure of the
+#: cylinder's chambers alone in 21, this rule in 23; where the two disagreed, the departure was
+#: right at ratios 1.5-2.7 (5 of 5), wrong at 1.08, 1.09 and 1.45.
 DEPARTURE_RATIO = 1.3
 
 
@@ -601,10 +601,12 @@ def offset_place(run: DoctorRun, finding: Finding, scored: list) -> Finding:
     return f
 
 
-def calibration_departure(mods: PneumaticMods) -> float:
-    """How far a chamber calibration sits from the datasheet: the sum over every chamber of the
-    squared logarithms of its supply-area, exhaust-area and dead-volume scales."""
-    scales = np.concatenate([mods.supply_scale, mods.exhaust_scale, mods.dead_volume_scale])
+def calibration_departure(mods: PneumaticMods, chambers=None) -> float:
+    """How far a chamber calibration sits from the datasheet: the sum over the ``chambers``
+    (indices; None: every chamber) of the squared logarithms of their supply-area, exhaust-area
+    and dead-volume scales."""
+    idx = slice(None) if chambers is None else list(chambers)
+    scales = np.concatenate([mods.supply_scale[idx], mods.exhaust_scale[idx], mods.dead_volume_scale[idx]])
     return float(np.sum(np.log(scales) ** 2))
 
 
@@ -613,15 +615,18 @@ def fixed_offset_evidence(run: DoctorRun, cands: dict) -> tuple[dict, dict]:
     :func:`calibration_departure`) with the offset the torque balance fitted for that chamber
     (``cands``: chamber -> its scored torque-balance term) taken out of its sensor and the
     chamber calibration refitted on the training windows.  No offset is fitted here: a chamber
-    whose sensor is right is made worse by the other's offset."""
+    whose sensor is right is made worse by the other's offset.  The departure counts the
+    cylinder's own chambers: the others' residuals do not see the offset, and on a robot with
+    many chambers their refits' small differences would add up to more than the cylinder's."""
     base = chamber_rms(run.held, run.win_h, run.mods)
+    cylinder = [s.hyp.chambers[0] for s in cands.values()]
     gains, departure = {}, {}
     for ch, s in cands.items():
         k, c = len(s.hyp.params), s.hyp.chambers[0]
         mods, _ = fit_chambers(run.exp, run.fit_win, offset_of_term(run.mods, s.hyp, s.fit.values[-k:], base.size),
                                run.sigma)
         gains[ch] = 1.0 - (chamber_rms(run.held, run.win_h, mods)[c] / max(base[c], 1e-300)) ** 2
-        departure[ch] = calibration_departure(mods)
+        departure[ch] = calibration_departure(mods, cylinder)
     return gains, departure
 
 
