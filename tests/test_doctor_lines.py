@@ -11,7 +11,7 @@ from identification.doctor.valve_arm.diagnose import _calibrated_run, diagnose
 from identification.doctor.valve_arm.hypotheses import pneumatic_hypotheses
 from identification.doctor.valve_arm.rules import MIN_PREDICTED, Finding
 from identification.doctor.valve_arm.screening import chamber_rms, fit_pneumatic, score_pneumatic
-from identification.doctor.valve_arm.search import finding_params
+from identification.doctor.valve_arm.screening import finding_params
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from scenarios._variantsim.cases import make_case

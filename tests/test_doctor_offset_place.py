@@ -1,5 +1,5 @@
 """Where the doctor places a pressure-sensor offset that the torque balance sees as a cylinder
-force error (identification/doctor/valve_arm/search.py: offset_place, offset_chamber,
+force error (identification/doctor/valve_arm/sensor_offsets.py: offset_place, offset_chamber,
 fixed_offset_evidence), on recordings of the random-form generator diagnosed from their CSV files
 alone."""
 import pytest
@@ -62,7 +62,7 @@ def test_where_the_held_out_gains_mislead_the_calibrations_return_to_the_datashe
 
 def test_calibration_departure_is_zero_on_the_datasheet_and_grows_with_any_scale():
     from identification.doctor.valve_arm.pneumatic import PneumaticMods
-    from identification.doctor.valve_arm.search import calibration_departure
+    from identification.doctor.valve_arm.sensor_offsets import calibration_departure
 
     nominal = PneumaticMods.nominal(4)
     assert calibration_departure(nominal) == 0.0

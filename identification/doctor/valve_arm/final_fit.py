@@ -11,7 +11,8 @@ from .hypotheses import mechanical_hypotheses
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
 from .rules import MIN_T, DoctorRun, passes_keep_rule
 from .screening import stack_terms
-from .search import apply_offset, corrected, mech_attr, offset_of_term
+from .search import mech_attr
+from .sensor_offsets import apply_offset, corrected, offset_of_term
 
 
 def final_joint_fit(run: DoctorRun) -> None:

@@ -147,7 +147,7 @@ def _apply_pneumatic(pmods: PneumaticMods, e: FittedEffect, hyps: list, robot) -
         raise ConfigError(f"{e.family} ({e.form}) at {e.place}: the doctor's replays have no such form")
     where = dict(e.where)
     if e.family == "pressure_sensor_offset" and "chamber" not in where:
-        where["chamber"] = "a"  # an offset the replays could not place, carried on chamber a (search.offset_place)
+        where["chamber"] = "a"  # an offset the replays could not place, carried on chamber a (sensor_offsets.offset_place)
     match = [h for h in hyps if h.family == e.family and h.where == where
              and tuple(p[0] for p in h.params) == names]
     if not match:

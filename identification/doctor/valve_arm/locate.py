@@ -14,7 +14,8 @@ from .pneumatic import PneumaticMods, replay
 from .hypotheses import ANGLE_PROFILE_BIN_RAD
 from .regimes import chamber_regimes, joint_regimes
 from .rules import HORIZON, MECH_KEEP, PNEU_KEEP, TRAIN_RATIO, UNEXPLAINED_RATIO, DoctorRun, Finding
-from .search import apply_offset, joint_residual, mech_block, stacked_regressors
+from .search import joint_residual, mech_block, stacked_regressors
+from .sensor_offsets import apply_offset
 
 
 @dataclass

@@ -205,3 +205,22 @@ def torque_rms(td, fit, extra=None, block: int = 1):
         n = res.shape[0] // block
         res = res[: n * block].reshape(n, block, -1).mean(axis=1)
     return np.sqrt(np.mean(res ** 2, axis=0))
+
+
+def dead_volume_index(s: Scored) -> int:
+    """Where the fit of a hypothesis at one chamber holds that chamber's log dead-volume scale."""
+    w = s.hyp.where
+    return s.fit.names.index(f"dead_volume_scale.{w['actuator']}.{w['chamber']}")
+
+
+def finding_params(s: Scored) -> dict:
+    """A fitted hypothesis's parameters as the report gives them: value and standard error."""
+    names = [p[0] for p in s.hyp.params]
+    k = len(names)
+    out = {n: {"value": float(v), "stderr": float(e)} for n, v, e in zip(names, s.fit.values[-k:], s.fit.stderr[-k:])}
+    out.update(s.hyp.fixed)
+    if s.hyp.adds_volume:  # the tube's volume: how much the chamber's dead volume grew past the model's
+        i = dead_volume_index(s)
+        scale, v_nominal = float(np.exp(s.fit.values[i])), s.hyp.adds_volume
+        out["volume_m3"] = {"value": max(scale - 1.0, 0.0) * v_nominal, "stderr": scale * float(s.fit.stderr[i]) * v_nominal}
+    return out
