@@ -221,10 +221,15 @@ class Simulation:
 
     def observe(self) -> Observation:
         """Noise-free, instantaneous sensor values now (with any sensor-offset effects)."""
-        q, qd = self.data.qpos[self._qadr], self.data.qvel[self._dadr]  # fancy indexing: copies
+        q, qd = self._angle_readings(self.data.qpos[self._qadr], self.data.qvel[self._dadr])
+        return Observation(self.time, q, qd, self.pressure + self.pressure_offset_now())
+
+    def _angle_readings(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """What the angle sensors report for true angles ``q`` [rad] and rates ``qd`` [rad/s]
+        (effects.angle_sensor_offset: gain, then offset; the rates take the gain alone)."""
         if self._gained:
             q, qd = self._q_gain * q, self._q_gain * qd
-        return Observation(self.time, q + self._q_offset, qd, self.pressure + self.pressure_offset_now())
+        return q + self._q_offset, qd
 
     def forces(self) -> np.ndarray:
         """(n_act,) actuator forces [N] (torques [N m] for vanes) from the current pressures."""
@@ -492,7 +497,5 @@ class Simulation:
         mean = self.sums / self.steps_summed
         self.sums[:] = 0.0
         self.steps_summed = 0
-        q, qd = mean[n_ch:n_ch + nq][self._qadr], mean[n_ch + nq:][self._dadr]
-        if self._gained:
-            q, qd = self._q_gain * q, self._q_gain * qd
-        return Observation(self.time, q + self._q_offset, qd, mean[:n_ch] + self.pressure_offset_now())
+        q, qd = self._angle_readings(mean[n_ch:n_ch + nq][self._qadr], mean[n_ch + nq:][self._dadr])
+        return Observation(self.time, q, qd, mean[:n_ch] + self.pressure_offset_now())
