@@ -40,6 +40,7 @@ from .naming import add_breakaway
 from .replay import MechMods, coupled_replay
 from .rules import HOLDOUT_SHARE, HORIZON, DoctorRun, Finding
 from .search import search_mechanical, search_pneumatic, start_torque_balance
+from .weak_supply import weak_supply_finding
 
 
 def diagnose(robot: Robot, recordings, holdouts=(), progress=None) -> dict:
@@ -72,6 +73,13 @@ def _diagnose(robot: Robot, recordings, holdouts, progress) -> dict:
     final_cal, cal_se, flags = final_calibration(run)
     say("locating regimes and windows")
     located = locate(run, flags)
+    if not located.unexplained and (weak := weak_supply_finding(run)) is not None:
+        # nothing found or unexplained, but the supply's droop shows in every chamber
+        say(f"a weak supply droop: {100 * weak.heldout_gain:.0f} % of the chambers' held-out residual")
+        run.findings.append(weak)
+        run.mods = weak.scored.mods
+        final_cal, cal_se, flags = final_calibration(run)
+        located = locate(run, flags)
     say("coupled replays on held-out data (before/after)")
     replays = _prove(run)
     while worse := worsening(run):  # the keep rule on what the user runs: withdrawn, fitted again

@@ -106,6 +106,8 @@ class DoctorRun:
     model before the findings is the one calibrated on the angles as read"""
     tried: set = field(default_factory=set)
     """hypothesis labels already kept or ruled out"""
+    weak_supply: list = field(default_factory=list)
+    """fitted supply_droop candidates of the rounds that kept nothing (weak_supply)"""
     base_extra: tuple | None = None
     """the kept torque terms, stacked (screening.stack_terms): regressors, names, bounds"""
     extra_terms: list = field(default_factory=list)

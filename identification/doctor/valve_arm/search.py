@@ -38,6 +38,7 @@ from .rules import (
 )
 from .sensor_offsets import corrected, offset_place
 from .supply_receiver import receiver_candidate
+from .weak_supply import note_supply_candidates
 from .screening import (
     Scored,
     chamber_rms,
@@ -75,6 +76,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             fit_pneumatic(s, exp, run.fit_win, run.mods, run.sigma)
             s.heldout_before, s.heldout_after = base_h, chamber_rms(held, win_h, s.mods)
             s.heldout_null = chamber_rms(held, win_h, s.hyp.switched_off(s.mods))
+        note_supply_candidates(run, top)
         # ranked on one footing: the held-out residual of every chamber the candidates touch.
         # Each one's own chambers would favour a flexible effect at one chamber over one that
         # explains the cylinder's two (doctor_variant_benchmark seed 7005: a two-area valve leak on chamber b
