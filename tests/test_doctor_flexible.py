@@ -306,3 +306,21 @@ def test_a_weak_finding_that_leaves_as_much_as_it_took_is_a_projection():
     assert not leaves_as_much(corr(**{"valve opening": REMAINDER_FLOOR - 0.01}), finding("valve_leak", 0.1))
     # a robot whose clean chambers spread wider sets the floor higher (flexible.paying)
     assert not leaves_as_much(corr(**{"valve opening": 0.21}), weak, floor=0.4)
+
+
+@pytest.mark.slow
+def test_a_backlash_beside_a_heat_transfer_is_not_taken_for_its_remainder(tmp_path):
+    """A backlash at the elbow beside a heat transfer at elbow chamber b (random-form generator,
+    seed 251294696 of fresh generalization run 19): with the heat transfer named, what chamber
+    b's flexible correction still takes through the volume is that finding's remainder, not a
+    sign that the backlash, acting on both of the elbow's chambers, is another law's projection.
+    Both are named, each at its place."""
+    from identification.doctor.valve_arm.diagnose import diagnose
+    from scenarios._variantsim.cases import make_case
+
+    truth = make_case(tmp_path, 251294696, ["backlash", "heat_transfer"], seconds=60.0, heldout_seconds=30.0,
+                      name="pair")
+    assert [e["where"] for e in truth["effects"]] == [{"joint": "elbow"}, {"actuator": "elbow", "chamber": "b"}]
+    report = diagnose(load_robot("arm2"), [read_csv(tmp_path / "pair.csv")], [read_csv(tmp_path / "pair_heldout.csv")])
+    named = sorted((f["effect"], tuple(f["where"].values())) for f in report["findings"])
+    assert named == [("backlash", ("elbow",)), ("heat_transfer", ("elbow", "b"))]

@@ -118,12 +118,18 @@ def partial_projection(run: DoctorRun, finding) -> bool:
     floor, it leaves there as much as it took (:func:`leaves_as_much`).  Then it is not named;
     what it would have taken up is reported unexplained (flexible_unexplained, or the replays'
     rule, locate._unexplained_chambers).  The chambers' counterpart of the joints'
-    YARDSTICK_SHARE rule (search._keep_mechanical)."""
+    YARDSTICK_SHARE rule (search._keep_mechanical).  What the inputs of a family already named
+    at a chamber carry there is that finding's remainder (as flexible_unexplained reads it), not
+    this one's, and such a chamber is not judged for it: a backlash, acting on both chambers of
+    its cylinder, beside a heat transfer named at one of them (fresh runs 16, 18, 19: the
+    backlash withdrawn, the heat transfer's remainder through the volume, and the inputs
+    correlated with it, taken for its own)."""
     hyp = finding.scored.hyp
     corrs, _, _ = corrections(run.exp, run.held, finding.scored.mods, block_samples(run.held))
     for c in paying(corrs):
         at = ("supply" in c.where) if hyp.family == "supply_droop" else bool(set(c.chambers) & set(hyp.chambers))
-        if at and "supply" not in c.where and finding.family not in c.suggests:
+        if at and "supply" not in c.where and finding.family not in c.suggests \
+                and not named_at(run, c.chambers) & set(c.suggests):
             return True
     if hyp.family == "supply_droop":
         return False
@@ -131,7 +137,13 @@ def partial_projection(run: DoctorRun, finding) -> bool:
     gains = [c.best_group_gain for c in chambers]
     # the chambers' own level and, on a robot with enough chambers, their spread (as paying)
     floor = max(REMAINDER_FLOOR, float(np.median(gains)), robust_ceiling(gains))
-    return any(leaves_as_much(c, finding, floor) for c in chambers if set(c.chambers) & set(hyp.chambers))
+    return any(leaves_as_much(c, finding, floor) for c in chambers
+               if set(c.chambers) & set(hyp.chambers) and not named_at(run, c.chambers) & set(c.suggests))
+
+
+def named_at(run: DoctorRun, chambers) -> set:
+    """The families of the findings kept so far that act at any of ``chambers``."""
+    return {f.family for f in run.findings if set(chambers) & set(f.scored.hyp.chambers)}
 
 
 #: a weak finding leaves as much as it took when, with it in the model, the flexible correction
