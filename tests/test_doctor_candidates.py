@@ -48,3 +48,21 @@ def test_a_supply_pays_in_the_chambers_it_feeds_not_in_one():
     assert not shared_by_chambers(_supply([-0.28, 0.58, -0.48, -1.7]))
     assert not shared_by_chambers(_supply([0.0, 0.0, 0.0, 0.36]))      # one chamber alone
     assert not shared_by_chambers(_supply([0.3, 0.3, -0.2, -0.2]))     # as many made worse
+
+
+def test_a_valve_leak_through_either_land_passes_the_keep_rule():
+    """The two-land valve leak is there when either land leaks (a laminar underlap fitted by
+    orifices: the exhaust land's area 16 standard errors from zero, the supply land's 3.7); a
+    form whose every parameter must be significant still asks each."""
+    from identification.doctor.valve_arm.hypotheses import pneumatic_hypotheses
+    from identification.doctor.valve_arm.rules import keeps
+    from pneumatics.robot import load_robot
+
+    hyps = [h for h in pneumatic_hypotheses(load_robot("arm2")) if h.label == "valve_leak@shoulder.b"]
+    two = next(h for h in hyps if len(h.params) == 2)
+    assert keeps(two, [5.43e-10, 2.34e-9], [1.46e-10, 1.48e-10])
+    assert not keeps(two, [5.43e-10, 2.34e-10], [1.46e-10, 1.48e-10])    # neither land
+    drift = SimpleNamespace(keep_mask=lambda: np.array([False, True]), any_tested=False)
+    assert keeps(drift, [0.0, 8e3], [1e3, 1e3]) and not keeps(drift, [8e3, 0.0], [1e3, 1e3])
+    both = SimpleNamespace(keep_mask=lambda: np.array([True, True]), any_tested=False)
+    assert not keeps(both, [5.43e-10, 2.34e-9], [1.46e-10, 1.48e-10])

@@ -133,6 +133,17 @@ class DoctorRun:
         return self.robot.tables.n_chambers
 
 
+def keeps(hyp, values, stderrs) -> bool:
+    """The keep rule on a hypothesis's fitted ``values`` and ``stderrs`` (its own parameters):
+    each tested parameter passes_keep_rule, or one of them where the hypothesis says
+    ``any_tested`` (a valve leak through either land)."""
+    m = hyp.keep_mask()
+    values, stderrs = np.asarray(values, float)[m], np.asarray(stderrs, float)[m]
+    if getattr(hyp, "any_tested", False):
+        return any(passes_keep_rule(v[None], e[None]) for v, e in zip(values, stderrs))
+    return passes_keep_rule(values, stderrs)
+
+
 def passes_keep_rule(values, stderrs) -> bool:
     """Every value >= MIN_T standard errors from 0, with a finite positive error (a parameter at
     a bound has none: the gain came from what was refitted with it)."""

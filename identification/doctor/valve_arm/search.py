@@ -34,6 +34,7 @@ from .rules import (
     YARDSTICK_SHARE,
     DoctorRun,
     Finding,
+    keeps,
     passes_keep_rule,
 )
 from .sensor_offsets import corrected, offset_place
@@ -286,8 +287,7 @@ def accept_best(candidates: list, keep: float) -> Finding | None:
             continue  # one chamber's effect standing in for the supply every chamber shares
         k = len(best.hyp.params)
         values, ses = best.fit.values[-k:], best.fit.stderr[-k:]
-        m = best.hyp.keep_mask()
-        if not (passes_keep_rule(values[m], ses[m]) or tube_volume_significant(best)):
+        if not (keeps(best.hyp, values, ses) or tube_volume_significant(best)):
             # a parameter it needs is not significant (or stuck at a bound, where least squares
             # gives no error bar: then the gain came from the calibration refitted with it)
             continue
