@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .rules import PARSIMONY, DoctorRun, Finding, passes_keep_rule
+from .rules import PARSIMONY, DoctorRun, Finding, keeps
 from .screening import Scored, finding_params
 
 #: the held-out gain (all chambers together) a weak supply droop must reach, and the most any
@@ -37,11 +37,10 @@ def note_supply_candidates(run: DoctorRun, fitted: list) -> None:
 
 
 def pays_as_weak_supply(s: Scored) -> bool:
-    """Significant (passes_keep_rule on its tested parameters), held-out gain >= WEAK_SUPPLY_KEEP,
+    """Significant (the keep rule on its tested parameters, rules.keeps), held-out gain >= WEAK_SUPPLY_KEEP,
     and shared as a supply is: every chamber but one better, none worse by WEAK_SUPPLY_KEEP."""
     k = len(s.hyp.params)
-    m = s.hyp.keep_mask()
-    if s.heldout_gain < WEAK_SUPPLY_KEEP or not passes_keep_rule(s.fit.values[-k:][m], s.fit.stderr[-k:][m]):
+    if s.heldout_gain < WEAK_SUPPLY_KEEP or not keeps(s.hyp, s.fit.values[-k:], s.fit.stderr[-k:]):
         return False
     g = 1.0 - (s.heldout_after / np.maximum(s.heldout_before, 1e-300)) ** 2
     return bool(np.sum(g > 0) >= g.size - 1 and np.all(g > -WEAK_SUPPLY_KEEP))
