@@ -8,7 +8,8 @@ import pytest
 
 from identification.doctor.valve_arm.data import prepare
 from identification.doctor.valve_arm.diagnose import diagnose
-from identification.doctor.valve_arm.final_fit import final_terms, passes_keep_rule
+from identification.doctor.valve_arm.final_fit import final_terms
+from identification.doctor.valve_arm.rules import passes_keep_rule
 from pneumatics.errors import RecordingError
 from pneumatics.recording import Recording, RecordingWarning, read_csv
 from pneumatics.recording_checks import add_room_pressure, check_for_robot, check_pressures

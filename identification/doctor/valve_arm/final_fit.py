@@ -9,7 +9,7 @@ from .calibrate import fit_chambers
 from .data import with_true_lengths
 from .hypotheses import mechanical_hypotheses
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
-from .rules import MIN_T, DoctorRun, passes_keep_rule
+from .rules import MIN_T, DoctorRun, keeps
 from .screening import stack_terms
 from .search import mech_attr
 from .sensor_offsets import apply_offset, corrected, offset_of_term
@@ -28,8 +28,7 @@ def final_joint_fit(run: DoctorRun) -> None:
         n = len(run.final_rfit.values)
         run.finals = final_terms(run.kept_mech, run.refine, run.final_rfit.values[n - n_terms:],
                                  run.final_rfit.stderr[n - n_terms:], replay_offset)
-        failing = [h for h, vals, ses in run.finals
-                   if not passes_keep_rule(vals[h.keep_mask()], ses[h.keep_mask()])]
+        failing = [h for h, vals, ses in run.finals if not keeps(h, vals, ses)]
         if not failing:
             break
         # a richer form whose extra parameter the final fit does not hold (an angle sensor's
