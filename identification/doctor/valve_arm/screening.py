@@ -19,6 +19,12 @@ from .mechanics import fit_rigid_body
 from .pneumatic import replay
 
 
+def channel_gains(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """Per channel, the fraction of the held-out mean square removed: 1 - (after / before)^2
+    (RMS arrays, as Scored.heldout_before and heldout_after)."""
+    return 1.0 - (after / np.maximum(before, 1e-300)) ** 2
+
+
 @dataclass
 class Scored:
     hyp: object

@@ -43,6 +43,7 @@ from .weak_supply import note_supply_candidates
 from .screening import (
     Scored,
     chamber_rms,
+    channel_gains,
     dead_volume_index,
     finding_params,
     fit_pneumatic,
@@ -338,7 +339,7 @@ def shared_by_chambers(s: Scored) -> bool:
     seed 488402068) was taken up by a supply droop that improved b by 0.58 and made the three
     other chambers worse (-0.28, -0.48, -1.7); real supply droops of the development seeds
     improved every chamber or all but one (0.08-0.94)."""
-    g = 1.0 - (s.heldout_after / np.maximum(s.heldout_before, 1e-300)) ** 2
+    g = channel_gains(s.heldout_before, s.heldout_after)
     better, worse = int(np.sum(g >= SHARED_GAIN)), int(np.sum(g <= -SHARED_GAIN))
     return better >= 2 and worse < better
 

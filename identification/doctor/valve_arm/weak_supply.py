@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from .rules import PARSIMONY, DoctorRun, Finding, keeps
-from .screening import Scored, finding_params
+from .screening import Scored, channel_gains, finding_params
 
 #: the held-out gain (all chambers together) a weak supply droop must reach, and the most any
 #: one chamber's held-out mean square may grow by under it
@@ -42,7 +42,7 @@ def pays_as_weak_supply(s: Scored) -> bool:
     k = len(s.hyp.params)
     if s.heldout_gain < WEAK_SUPPLY_KEEP or not keeps(s.hyp, s.fit.values[-k:], s.fit.stderr[-k:]):
         return False
-    g = 1.0 - (s.heldout_after / np.maximum(s.heldout_before, 1e-300)) ** 2
+    g = channel_gains(s.heldout_before, s.heldout_after)
     return bool(np.sum(g > 0) >= g.size - 1 and np.all(g > -WEAK_SUPPLY_KEEP))
 
 
