@@ -131,6 +131,19 @@ def test_clean_recording_gives_no_finding(tmp_path):
     assert abs(rep["calibration_change"]["valve_flow_gain"]["relative"]) < 0.05  # +-3 % error planted
 
 
+def test_a_small_transducer_offset_is_named(tmp_path):
+    """An offset concealed down to 18 kPa (under the transducers' 20 kPa noise) cuts the held-out
+    J by ~17 %: above the keep rule's 5 % (nulls buy at most 1 %), named at its chamber."""
+    truth = make_case(tmp_path / "offset", 503751578, "pressure_sensor_offset", seconds=8.0, heldout_seconds=6.0)
+    true = truth["effects"][0]["parameters"]["pressure_sensor_offset_b_pa"]
+    assert abs(true) < 2.0e4
+    rep = _doctor(truth, ["pressure_sensor_offset", "valve_null_shift", "coulomb_friction"])
+    first = rep["findings"][0]
+    assert first["effect"] == "pressure_sensor_offset" and first["where"]["chamber"] == "b"
+    assert first["parameters"]["pressure_sensor_offset_b_pa"]["value"] == pytest.approx(true, rel=0.3)
+    assert len(rep["findings"]) == 1
+
+
 def test_report_files_through_the_entry(friction_case, tmp_path):
     rep = _doctor(friction_case, ["coulomb_friction", "valve_leak"])
     write(rep, tmp_path / "out")  # identification.doctor.write dispatches on the model's kind
