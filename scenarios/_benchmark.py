@@ -16,6 +16,40 @@ def fresh_seed_base() -> int:
     return lo + int(np.random.SeedSequence().entropy % (hi - lo))
 
 
+def seed_base_from_env(env: str, development: int, out=None) -> tuple[int, str]:
+    """(base seed, "development" | "given" | "fresh") from environment variable ``env``: unset,
+    the development base; a whole number, that base; "fresh", one drawn from the operating
+    system's entropy -- or, when ``out`` holds the ``seed.json`` of an unfinished run (no
+    metrics.json yet), the one that run drew, so a resumed run keeps its seeds.  The caller
+    writes ``seed.json`` (:func:`remember_seed_base`)."""
+    import json
+    import os
+
+    from pneumatics.errors import ConfigError
+
+    given = os.environ.get(env)
+    if given is None:
+        return development, "development"
+    if given.strip().lower() == "fresh":
+        stored = None if out is None else out / "seed.json"
+        if stored is not None and stored.is_file() and not (out / "metrics.json").exists():
+            s = json.loads(stored.read_text())
+            return int(s["seed_base"]), s["seed_source"]
+        return fresh_seed_base(), "fresh"
+    try:
+        return int(given), "given"
+    except ValueError:
+        raise ConfigError(f"{env}={given!r}: expected a whole number (the base seed) or 'fresh'") from None
+
+
+def remember_seed_base(out, base: int, source: str) -> None:
+    """``out``/seed.json: the base seed a run uses (a resumed fresh run reads it back)."""
+    from pneumatics.io import atomic_write_json
+
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(out / "seed.json", {"seed_base": base, "seed_source": source})
+
+
 def judge(effects: list[dict], report: dict, same=lambda named, hidden: named == hidden, strict: bool = False) -> dict:
     """One case's answer against its hidden ``effects`` ([{"family", "where"}]): every hidden
     family named (``same``), a not-separable alternative counting, and no finding of a family

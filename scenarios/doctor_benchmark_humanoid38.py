@@ -6,8 +6,9 @@ noise.  The doctor (identification/doctor/valve_arm) is given the nominal humano
 two recordings; its answers are compared with the truth.
 
 Plan (full): every family the registry can place on humanoid38 twice, 4 null cases and 3
-pairs, 60 s + 30 s recordings, seeds from ``PNEUMASIM_HUMANOID_SEED`` (the first seed, default
-7000; a later, fresh run gives another one).  ``--fast`` (CI): a null case, a chamber effect
+pairs, 60 s + 30 s recordings, seeds from ``PNEUMASIM_HUMANOID_SEED``: unset, the development
+base 7000; a number, that base; "fresh", a base drawn from the operating system's entropy when
+the run starts (kept in seed.json for a resumed run; ``seed_source`` in metrics.json).  ``--fast`` (CI): a null case, a chamber effect
 (valve_leak) and a joint effect (viscous_friction), 20 s + 10 s, fixed seeds.
 
 Metrics: the strict ones of scenarios/_generalization_metrics.py (``strict_effect_accuracy``,
@@ -26,7 +27,6 @@ cases/<case>/report.json and truth.json.
 """
 from __future__ import annotations
 
-import os
 import resource
 import time
 
@@ -35,7 +35,7 @@ import numpy as np
 from pneumatics.io import atomic_write_json
 from workflow.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import judge, print_cases
+from ._benchmark import judge, print_cases, remember_seed_base, seed_base_from_env
 from ._generalization_metrics import case_kind, generalization_metrics
 from .common import main
 
@@ -49,13 +49,15 @@ PAIRS = (["valve_leak", "coulomb_friction"], ["pressure_sensor_offset", "valve_h
 ARM2_CHAMBERS, HUMANOID_CHAMBERS = 4, 76
 
 
-def plan(fast: bool) -> tuple[list, float, float]:
-    """[(seed, [families])], main seconds, held-out seconds."""
+DEVELOPMENT_SEED_BASE = 7000
+
+
+def plan(fast: bool, seed: int = DEVELOPMENT_SEED_BASE) -> tuple[list, float, float]:
+    """[(seed, [families])], main seconds, held-out seconds (full plan from base ``seed``)."""
     if fast:
         return [(701, []), (702, ["valve_leak"]), (703, ["viscous_friction"])], 20.0, 10.0
     from ._humanoid_cases import humanoid_families
 
-    seed = int(os.environ.get(SEED_ENV, "7000"))
     cases = []
     for fam in humanoid_families():
         cases += [(seed, [fam]), (seed + 1, [fam])]
@@ -168,18 +170,21 @@ def plot_doctor_time(ctx, rows: list[dict], arm2: dict, seconds: float, heldout_
 
 
 def run(ctx):
-    cases, seconds, held_s = plan(ctx.fast)
+    base, source = (701, "development") if ctx.fast else seed_base_from_env(SEED_ENV, DEVELOPMENT_SEED_BASE, ctx.out)
+    remember_seed_base(ctx.out, base, source)
+    cases, seconds, held_s = plan(ctx.fast, base)
     specs = [{"seed": s, "families": f, "seconds": seconds, "heldout_seconds": held_s} for s, f in cases]
     specs.append({"arm2_timing": True, "seed": 1, "seconds": seconds, "heldout_seconds": held_s})
     results = sweep(sweep_case, specs, out=ctx.out / "sweep", **options_from_env())
     raise_on_failure(results, "doctor_benchmark_humanoid38")
     *rows, arm2 = [r.result for r in results]
     rows = list(rows)
-    print_cases(rows)
+    if source != "fresh":  # a fresh run is reported as it comes, not case by case
+        print_cases(rows)
     write_cases(ctx, rows)
     plot_doctor_time(ctx, rows, arm2, seconds, held_s)
     families = sorted({f for _, fams in cases for f in fams})
-    return metrics(rows, families, arm2)
+    return {**metrics(rows, families, arm2), "seed_base": base, "seed_source": source}
 
 
 if __name__ == "__main__":

@@ -24,7 +24,6 @@ kept in ``<out>/sweep/cases/`` (a rerun resumes).
 """
 from __future__ import annotations
 
-import os
 import tempfile
 import time
 from pathlib import Path
@@ -32,12 +31,12 @@ from pathlib import Path
 import numpy as np
 
 from identification.doctor.hydraulic.diagnose import diagnose_hydraulic
-from pneumatics.errors import ConfigError
 from pneumatics.io import atomic_write_json
 from pneumatics.recording import read_csv
 from workflow.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import confusion_matrix, fresh_seed_base, nrmse_reductions, plot_confusion, print_cases
+from ._benchmark import (confusion_matrix, nrmse_reductions, plot_confusion, print_cases, remember_seed_base,
+                         seed_base_from_env)
 from ._sarcos_cases import FAMILIES, make_case
 from .common import main
 
@@ -53,17 +52,9 @@ SEED_ENV = "PNEUMASIM_SARCOS_SEED"
 DEVELOPMENT_SEED_BASE = 3000
 
 
-def seed_base() -> tuple[int, str]:
+def seed_base(out=None) -> tuple[int, str]:
     """(base seed, "development" | "given" | "fresh") from ``PNEUMASIM_SARCOS_SEED``."""
-    given = os.environ.get(SEED_ENV)
-    if given is None:
-        return DEVELOPMENT_SEED_BASE, "development"
-    if given.strip().lower() == "fresh":
-        return fresh_seed_base(), "fresh"
-    try:
-        return int(given), "given"
-    except ValueError:
-        raise ConfigError(f"{SEED_ENV}={given!r}: expected a whole number (the base seed) or 'fresh'") from None
+    return seed_base_from_env(SEED_ENV, DEVELOPMENT_SEED_BASE, out)
 
 
 def plan(fast: bool, base: int = DEVELOPMENT_SEED_BASE):
@@ -138,7 +129,8 @@ def metrics(rows: list[dict]) -> dict:
 
 
 def run(ctx):
-    base, source = (301, "development") if ctx.fast else seed_base()
+    base, source = (301, "development") if ctx.fast else seed_base(ctx.out)
+    remember_seed_base(ctx.out, base, source)
     cases, seconds, held_s = plan(ctx.fast, base)
     results = sweep(blind_case, [{"seed": s, "families": f, "seconds": seconds, "heldout_seconds": held_s}
                                  for s, f in cases], out=ctx.out / "sweep", **options_from_env())

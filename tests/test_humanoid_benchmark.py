@@ -74,3 +74,21 @@ def test_metrics_from_hand_made_rows_are_strict_and_keep_the_arm2_time():
     assert m["null_false_discovery_rate"] == 1.0 and m["silent_miss_rate"] == 0.0
     assert m["strict_location_accuracy.viscous_friction"] == 0.0
     assert m["peak_memory_mib"] == 1200.0 and m["arm2_doctor_seconds"] == 8.0 and m["seeds"] == "1,2,3"
+
+
+def test_a_fresh_humanoid_run_draws_its_base_and_a_resumed_one_keeps_it(tmp_path, monkeypatch):
+    """PNEUMASIM_HUMANOID_SEED: unset, the development base 7000; "fresh", a 9-digit base from
+    the operating system's entropy, read back from seed.json while the run has no metrics.json."""
+    from scenarios._benchmark import remember_seed_base, seed_base_from_env
+    from scenarios.doctor_benchmark_humanoid38 import DEVELOPMENT_SEED_BASE, SEED_ENV, plan
+
+    monkeypatch.delenv(SEED_ENV, raising=False)
+    assert seed_base_from_env(SEED_ENV, DEVELOPMENT_SEED_BASE, tmp_path) == (7000, "development")
+    monkeypatch.setenv(SEED_ENV, "fresh")
+    base, source = seed_base_from_env(SEED_ENV, DEVELOPMENT_SEED_BASE, tmp_path)
+    assert source == "fresh" and 100_000_000 <= base < 1_000_000_000
+    remember_seed_base(tmp_path, base, source)
+    assert seed_base_from_env(SEED_ENV, DEVELOPMENT_SEED_BASE, tmp_path) == (base, "fresh")  # resumed
+    (tmp_path / "metrics.json").write_text("{}")  # finished: the next run draws anew
+    assert seed_base_from_env(SEED_ENV, DEVELOPMENT_SEED_BASE, tmp_path)[0] != base
+    assert plan(False, base)[0][0][0] == base
