@@ -122,6 +122,7 @@ SIDECAR_FIELDS = {
     "supply_pa": ("positive", "a positive number [Pa abs]"),
     "bore_m": ("positive", "a positive number [m]"),
     "volume_m3": ("positive", "a positive number [m^3]"),
+    "braced": (bool, "true or false (the load locked by a brace, as paper 001's Fig. 2a)"),
 }
 
 

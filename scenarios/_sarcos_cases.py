@@ -8,10 +8,13 @@ weight moment, and its inertia, which the doctor does not calibrate), sensor noi
 proportional position loop on the vane angle (4 A/rad at 1 kHz) tracking a random reference
 (three sines of 0.05-0.3 Hz on smoothed random steps, within +-1 rad; it starts away from
 the hanging pose, so the arm moves from the first second); a recording to fit and
-a different held-out one, sampled at 1 kHz.  **Concealed**: the effects are halved (together)
+a different held-out one, sampled at 1 kHz; and, as paper 001 §3.2.2 identifies the elbow,
+a braced recording of each (the load locked by the steel brace, open-loop currents of three
+sines; sidecar ``"braced": true``), where the pressures show the chambers' volumes and the
+angle and torque the shaft's stiffness.  **Concealed**: the effects are halved (together)
 until the nominal model without them (true parameters) keeps a held-out R^2 >= 0.9 on every
-pressure channel (restarted oil replays) and on the hydraulic torque (D_v P_L against the
-rigid-body equation).  The doctor sees only the CSV files; the truth is written beside them.
+pressure channel (restarted oil replays, free and braced) and on the hydraulic torque (D_v P_L
+against the rigid-body equation).  The doctor sees only the CSV files; the truth is written beside them.
 """
 from __future__ import annotations
 
@@ -96,6 +99,34 @@ def record(cfg, mass_factor: float, fx: HydraulicEffects, rng, seconds: float, n
     return add_sensor_offsets(rec, fx)
 
 
+def braced_currents(rng):
+    """i(t) [A] for a braced recording: three sines of 0.02-0.08 A at 0.3-3 Hz (the pressures
+    stay well inside the supply and the tank; paper 001 §4 drives the braced elbow with sines)."""
+    amps, freqs, phases = rng.uniform(0.02, 0.08, 3), rng.uniform(0.3, 3.0, 3), rng.uniform(0, 2 * np.pi, 3)
+    return lambda t: float(np.sum(amps * np.sin(2 * np.pi * freqs * t + phases)))
+
+
+def record_braced(cfg, mass_factor: float, fx: HydraulicEffects, rng, seconds: float, name: str):
+    """One noisy braced recording of the true elbow with effects ``fx`` (sidecar "braced": true)."""
+    sim = build_sim(fx, cfg=cfg)
+    load = sim.model.body("load").id
+    sim.model.body_mass[load] *= mass_factor
+    sim.model.body_inertia[load] *= mass_factor
+    sim.reset(braced=True)
+    rec = run_measured(sim, braced_currents(rng), seconds, rate_hz=RATE_HZ, rng=rng, name=name)
+    return add_sensor_offsets(rec, fx)
+
+
+def r2_braced(rec, cfg, mech) -> dict:
+    """Held-out R^2 of the model without the effects on a braced recording's chamber pressures."""
+    tr = make_trace(rec.time, rec["i.elbow"], rec["q.elbow"], rec["p_a.elbow"], rec["p_b.elbow"], rec["tau.elbow"],
+                    braced=True)
+    pred = replay_oil(tr, cfg, HydraulicEffects(), shaft_compliance_rad_per_nm=1.0 / mech.k_s)
+    m = tr.scored
+    return {f"braced_{c}": float(1 - np.mean((getattr(tr, c) - pred[c])[m] ** 2) / np.var(getattr(tr, c)[m]))
+            for c in ("p_a", "p_b")}
+
+
 def r2_nominal(rec, cfg, mech) -> dict:
     """Held-out R^2 of the model without the effects (true parameters): the restarted oil replay
     per chamber, the rigid-body equation for the hydraulic torque."""
@@ -113,8 +144,10 @@ def r2_nominal(rec, cfg, mech) -> dict:
     return out
 
 
-def make_case(folder: Path, seed: int, family, seconds: float = 20.0, heldout_seconds: float = 10.0) -> dict:
-    """Write ``main.csv``, ``heldout.csv`` and ``truth.json`` into ``folder``; returns the truth.
+def make_case(folder: Path, seed: int, family, seconds: float = 20.0, heldout_seconds: float = 10.0,
+              braced_seconds: float = 0.0, braced_heldout_seconds: float = 0.0) -> dict:
+    """Write ``main.csv``, ``heldout.csv`` (and, with ``braced_seconds`` > 0, ``main_braced.csv``
+    and ``heldout_braced.csv``) and ``truth.json`` into ``folder``; returns the truth.
 
     ``family``: None (a null case), one family name, or a list of families."""
     from identification.doctor.hydraulic.mechanics import from_model
@@ -142,6 +175,10 @@ def make_case(folder: Path, seed: int, family, seconds: float = 20.0, heldout_se
         fx = HydraulicEffects(**{field: v * scale for _, field, _, v in drawn})
         held = record(cfg, mass, fx, np.random.default_rng(seed + 1), heldout_seconds, "heldout")
         r2 = r2_nominal(held, cfg, mech)
+        if braced_seconds > 0:
+            held_braced = record_braced(cfg, mass, fx, np.random.default_rng(seed + 3), braced_heldout_seconds,
+                                        "heldout_braced")
+            r2.update(r2_braced(held_braced, cfg, mech))
         if min(r2.values()) >= R2_CONCEALED:
             break
         scale *= 0.5
@@ -149,9 +186,15 @@ def make_case(folder: Path, seed: int, family, seconds: float = 20.0, heldout_se
     main = record(cfg, mass, fx, np.random.default_rng(seed + 2), seconds, "main")
     main.to_csv(folder / "main.csv")
     held.to_csv(folder / "heldout.csv")
+    recordings = {"main": str(folder / "main.csv"), "heldout": str(folder / "heldout.csv")}
+    if braced_seconds > 0:
+        record_braced(cfg, mass, fx, np.random.default_rng(seed + 4), braced_seconds, "main_braced").to_csv(
+            folder / "main_braced.csv")
+        held_braced.to_csv(folder / "heldout_braced.csv")
+        recordings.update(main_braced=str(folder / "main_braced.csv"), heldout_braced=str(folder / "heldout_braced.csv"))
     truth = {"seed": seed, "families": families or ["none"], "effects": effects, "r2_nominal_heldout": r2,
              "parameter_errors": {"port_width_m": cfg.servovalve.port_width_m,
                                   "load_mass_factor": mass},
-             "recordings": {"main": str(folder / "main.csv"), "heldout": str(folder / "heldout.csv")}}
+             "recordings": recordings}
     atomic_write_json(folder / "truth.json", truth)
     return truth

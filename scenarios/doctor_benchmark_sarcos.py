@@ -48,6 +48,10 @@ RESUMABLE = True
 PAIRS = (["valve_hysteresis", "coulomb_friction"], ["supply_droop", "force_sensor_offset"])
 
 
+#: braced recordings of every case (paper 001 §3.2.2: the load locked by the steel brace), to
+#: fit and held out [s]: the experiment that shows the chambers' volumes and the shaft's stiffness
+BRACED_SECONDS, BRACED_HELDOUT_SECONDS = 4.0, 3.0
+
 SEED_ENV = "PNEUMASIM_SARCOS_SEED"
 DEVELOPMENT_SEED_BASE = 3000
 
@@ -90,10 +94,12 @@ def blind_case(case: dict) -> dict:
     """One case (in any sweep worker): make the recordings, run the doctor on the CSVs, judge."""
     seed, fams = case["seed"], case["families"]
     with tempfile.TemporaryDirectory(prefix="sarcos_case_") as work:
-        truth = make_case(Path(work), seed, fams or None, seconds=case["seconds"], heldout_seconds=case["heldout_seconds"])
+        truth = make_case(Path(work), seed, fams or None, seconds=case["seconds"], heldout_seconds=case["heldout_seconds"],
+                          braced_seconds=BRACED_SECONDS, braced_heldout_seconds=BRACED_HELDOUT_SECONDS)
+        files = truth["recordings"]
         t0 = time.perf_counter()
-        report = diagnose_hydraulic("sarcos_elbow", [read_csv(truth["recordings"]["main"])],
-                                    [read_csv(truth["recordings"]["heldout"])])
+        report = diagnose_hydraulic("sarcos_elbow", [read_csv(files["main"]), read_csv(files["main_braced"])],
+                                    [read_csv(files["heldout"]), read_csv(files["heldout_braced"])])
         secs = time.perf_counter() - t0
     report.pop("_plot", None)
     j = judge(truth, report)

@@ -144,6 +144,78 @@ def test_a_small_transducer_offset_is_named(tmp_path):
     assert len(rep["findings"]) == 1
 
 
+def test_a_braced_recording_obeys_the_shaft_law_and_says_it_is_braced():
+    """Braced (paper 001 Fig. 2a): the load is locked, the vane moves by the shaft's twist alone,
+    tau = k_s (theta_v - theta_load); the sidecar says so.  Driven by the twist rate, the oil
+    replay is far inside the transducers' noise."""
+    from identification.doctor.hydraulic.mechanics import from_model
+    from scenarios._sarcos_cases import braced_currents
+
+    sim = build_sim()
+    sim.reset(braced=True)
+    rec = run_measured(sim, braced_currents(np.random.default_rng(3)), 3.0, noise=False)
+    assert rec.meta["braced"] is True and sim.braced
+    k_s = from_model(sim, sim.cfg.vane.displacement_m3_per_rad).k_s
+    twist = rec["q.elbow"] - rec["tau.elbow"] / k_s
+    assert np.ptp(rec["tau.elbow"]) > 10.0 and np.ptp(twist) < 0.05 * np.ptp(rec["q.elbow"])
+    tr = make_trace(rec.time, rec["i.elbow"], rec["q.elbow"], rec["p_a.elbow"], rec["p_b.elbow"], rec["tau.elbow"],
+                    braced=True)
+    out = replay_oil(tr, sim.cfg, HydraulicEffects(), shaft_compliance_rad_per_nm=1.0 / k_s)
+    for c in ("p_a", "p_b"):
+        assert np.sqrt(np.mean((getattr(tr, c) - out[c])[tr.scored] ** 2)) < 5e3, c  # noise: 20 kPa
+
+
+@pytest.fixture(scope="module")
+def braced_cases(tmp_path_factory):
+    """Seeds of the development set: 8.6 cm^3 more oil in chamber b's passage (3008), the shaft
+    half as stiff (3016), each with braced recordings of 4 s + 3 s beside the free 8 s + 6 s."""
+    root = tmp_path_factory.mktemp("braced")
+    return {fam: make_case(root / fam, seed, fam, seconds=8.0, heldout_seconds=6.0, braced_seconds=4.0,
+                           braced_heldout_seconds=3.0)
+            for fam, seed in (("line_dynamics", 3008), ("shaft_compliance", 3016))}
+
+
+def _doctor_braced(truth, hypotheses, braced=True):
+    files = truth["recordings"]
+    mains = [read_csv(files["main"])] + ([read_csv(files["main_braced"])] if braced else [])
+    helds = [read_csv(files["heldout"])] + ([read_csv(files["heldout_braced"])] if braced else [])
+    return diagnose_hydraulic("sarcos_elbow", mains, helds, hypotheses=hypotheses)
+
+
+@pytest.mark.parametrize("family, field", [("line_dynamics", "line_volume_extra_b_m3"),
+                                           ("shaft_compliance", "shaft_compliance_extra_rad_per_nm")])
+def test_braced_recordings_reveal_the_chambers_volume_and_the_shaft(braced_cases, family, field):
+    """Free recordings alone hide both (the encoder's noise through the oil spring; the shaft
+    mode at 2-3 times the torque noise); the braced ones name them, at their place, close to
+    the hidden value."""
+    truth = braced_cases[family]
+    hyps = ["line_dynamics", "shaft_compliance", "valve_leak", "piston_leak"]
+    assert [f["effect"] for f in _doctor_braced(truth, hyps, braced=False)["findings"]] == []
+    rep = _doctor_braced(truth, hyps)
+    assert "brace" in rep["diagnostics"]["channels"]
+    first = rep["findings"][0]
+    assert first["effect"] == family and first["where"] == truth["effects"][0]["where"]
+    true = truth["effects"][0]["parameters"][field]
+    assert first["parameters"][field]["value"] == pytest.approx(true, rel=0.25)
+    # the shaft's twist grows with the torque it carries: its gain may gather at large load pressure
+    assert first["regime"] in ("load braced", "large load pressure (top fifth)")
+
+
+def test_a_braced_recording_to_fit_needs_one_held_out(braced_cases):
+    files = braced_cases["line_dynamics"]["recordings"]
+    with pytest.raises(RecordingError, match="braced recording .* among the fitted recordings only .*main_braced"):
+        diagnose_hydraulic("sarcos_elbow", [read_csv(files["main"]), read_csv(files["main_braced"])],
+                           [read_csv(files["heldout"])])
+
+
+def test_braced_recordings_alone_leave_out_the_load_equation(braced_cases):
+    files = braced_cases["line_dynamics"]["recordings"]
+    rep = diagnose_hydraulic("sarcos_elbow", [read_csv(files["main_braced"])], [read_csv(files["heldout_braced"])],
+                             hypotheses=["line_dynamics", "valve_leak"])
+    assert rep["diagnostics"]["channels"] == ["p_a", "p_b", "brace"]
+    assert [f["effect"] for f in rep["findings"]] == ["line_dynamics"]
+
+
 def test_report_files_through_the_entry(friction_case, tmp_path):
     rep = _doctor(friction_case, ["coulomb_friction", "valve_leak"])
     write(rep, tmp_path / "out")  # identification.doctor.write dispatches on the model's kind

@@ -149,6 +149,7 @@ def test_utf16_is_named(tmp_path):
     ('{"daq_averaging": "false"}', "field 'daq_averaging' must be true or false, got \"false\""),
     ('{"rate_hz": -100}', "field 'rate_hz' must be a positive number \\[Hz\\], got -100"),
     ('{"room_pa": "101325"}', "field 'room_pa' must be a positive number \\[Pa abs\\]"),
+    ('{"braced": 1}', "field 'braced' must be true or false"),
     ("{model: arm2}", "sidecar is not valid JSON"),
 ])
 def test_sidecar_is_validated(tmp_path, sidecar, match):

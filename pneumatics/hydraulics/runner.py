@@ -113,5 +113,6 @@ def run_measured(sim: HydraulicJointSim, current: Callable[[float], float], dura
                 sd = {"angle": s.angle_noise_rad, "pressure": s.pressure_noise_pa, "torque": s.torque_noise_nm}[kind]
                 columns[col] = columns[col] + rng.normal(0.0, sd, len(times))
     meta = {"model": "sarcos_elbow", "rate_hz": rate_hz, "noise": bool(noise), "name": name,
-            "daq_averaging": False}  # sensors sampled at each row's time, not averaged over the period
+            "daq_averaging": False,  # sensors sampled at each row's time, not averaged over the period
+            "braced": sim.braced}
     return Recording(np.array(times), columns, meta, source=name)

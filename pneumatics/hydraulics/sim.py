@@ -106,6 +106,11 @@ class HydraulicJointSim:
         """Lock (True) or free (False) the load with the steel brace (paper 001 Fig. 2a)."""
         self.data.eq_active[self._brace] = bool(on)
 
+    @property
+    def braced(self) -> bool:
+        """Whether the brace locks the load."""
+        return bool(self.data.eq_active[self._brace])
+
     def set_ports(self, a: Port | str = VALVE, b: Port | str = VALVE):
         """Connect the chamber ports: ``"valve"``, ``"blocked"`` or a tap :class:`Port`."""
         named = {"valve": VALVE, "blocked": BLOCKED}

@@ -10,6 +10,11 @@ columns are kept and ignored)::
     p_b.elbow    chamber b pressure [Pa abs]                                   (required)
     tau.elbow    joint torque sensor [N m] (optional: without it the shaft is taken as stiff
                  and shaft_compliance and force_sensor_offset are not tested)
+
+A recording whose sidecar says ``"braced": true`` was made with the load locked by the steel
+brace (paper 001 Fig. 2a, §3.2.2): the valve works against the blocked vane and its shaft, so
+the pressures show the chambers' volumes and the angle and torque the shaft's stiffness
+directly.  Braced recordings are given among the fitted and the held-out ones alike.
 """
 from __future__ import annotations
 
@@ -73,7 +78,7 @@ def check(rec: Recording, model: str, cfg: HydraulicCfg):
 
 def to_trace(rec: Recording) -> Trace:
     return make_trace(rec.time, rec["i.elbow"], rec["q.elbow"], rec["p_a.elbow"], rec["p_b.elbow"],
-                      rec.columns.get("tau.elbow"), source=rec.source)
+                      rec.columns.get("tau.elbow"), source=rec.source, braced=bool(rec.meta.get("braced", False)))
 
 
 def load_traces(model: str, recordings, holdouts=(), holdout_fraction: float = HOLDOUT):
@@ -90,6 +95,13 @@ def load_traces(model: str, recordings, holdouts=(), holdout_fraction: float = H
                              f"({', '.join(f'{k}: {v}' for k, v in with_tau.items())}); give it in all or none")
     if holdouts:
         train, held = list(recordings), list(holdouts)
+        braced_train = any(r.meta.get("braced", False) for r in train)
+        braced_held = any(r.meta.get("braced", False) for r in held)
+        if braced_train != braced_held:
+            which = "fitted" if braced_train else "held-out"
+            raise RecordingError(f"hydraulic doctor: a braced recording (sidecar \"braced\": true) is among the {which} "
+                                 f"recordings only ({', '.join(r.source for r in [*train, *held] if r.meta.get('braced'))}); "
+                                 "give one to fit and one to hold out, or none")
     else:
         if not 0.05 <= holdout_fraction <= 0.8:
             raise RecordingError(f"hydraulic doctor: holdout_fraction = {holdout_fraction}; expected 0.05-0.8")

@@ -33,8 +33,8 @@ from pneumatics.hydraulics.effects import HydraulicEffects, build_sim
 from pneumatics.recording import Recording
 
 from .data import HOLDOUT, load_traces
-from .hypotheses import (ALIKE, CALIBRATION, FIT_SECONDS, KEEP, MIN_DJ, MIN_T, ROUNDS, UNEXPLAINED_DJ, UNEXPLAINED_SHARE,
-                         select_hypotheses)
+from .hypotheses import (ALIKE, BRACED_FIT_SECONDS, CALIBRATION, FIT_SECONDS, KEEP, MIN_DJ, MIN_T, ROUNDS,
+                         UNEXPLAINED_DJ, UNEXPLAINED_SHARE, select_hypotheses)
 from .mechanics import from_model
 from .problem import Problem, fit, sides_of
 from .regimes import flexible_regressors, locate, masks
@@ -50,8 +50,7 @@ def diagnose_hydraulic(model: str, recordings: list[Recording], holdouts: list[R
     t_start = time.perf_counter()
     cfg0, train, held, sources = load_traces(model, recordings, holdouts, holdout_fraction)
     hyps = select_hypotheses(hypotheses, torque=train[0].torque is not None)
-    total = sum(t.time[-1] - t.time[0] for t in train)
-    train = [t.head(fit_seconds * (t.time[-1] - t.time[0]) / total) for t in train]
+    train = _fit_parts(train, fit_seconds)
     sim = build_sim(cfg=cfg0, name=model)
     prob = Problem(cfg0, from_model(sim, cfg0.vane.displacement_m3_per_rad), train, held)
     none, zero = HydraulicEffects(), np.zeros(len(CALIBRATION))
@@ -98,6 +97,18 @@ def diagnose_hydraulic(model: str, recordings: list[Recording], holdouts: list[R
     }
 
 
+def _fit_parts(train, fit_seconds: float) -> list:
+    """The start of each fitted trace: ``fit_seconds`` shared among the free recordings in
+    proportion to their lengths, and BRACED_FIT_SECONDS among the braced ones (the doctor's time
+    is replays; a braced recording's pressures answer the chambers' volumes within seconds)."""
+    out = []
+    for braced, budget in ((False, fit_seconds), (True, BRACED_FIT_SECONDS)):
+        part = [t for t in train if t.braced == braced]
+        total = sum(t.time[-1] - t.time[0] for t in part)
+        out += [t.head(budget * (t.time[-1] - t.time[0]) / total) for t in part]
+    return out
+
+
 def _calibrated(prob, dev) -> dict:
     """The calibrated parameters in SI (the names carry the unit)."""
     sv, m = prob.cfg0.servovalve, prob.mech0
@@ -117,7 +128,7 @@ def _round(prob: Problem, s: dict, hyps, rnd: int, say) -> bool:
     for h in cands:
         say(f"round {rnd + 1}: {h.name}")
         x0 = np.array([0.0 if h.lower < 0 else min(1.0, h.upper / h.unit)])
-        res, dev_h, fx_h = fit(prob, [h], x0, s["dev"], s["fx"], sides_of([h]))
+        res, dev_h, fx_h = fit(prob, [h], x0, s["dev"], s["fx"], sides_of([h], any(t.braced for t in prob.train)))
         j_h, per_h = prob.score(prob.held, dev_h, fx_h)
         scored.append((j_h, h, res, dev_h, fx_h, per_h))
         if rnd == 0:
@@ -201,7 +212,8 @@ def _unexplained(prob: Problem, s: dict) -> list:
                     regime_masks.setdefault(k, []).append(v[prob.masks[id(tr)][c]])
             where = locate((r_h ** 2 - (r_h - a_h @ coef) ** 2) / prob.sigma[c] ** 2,
                            {k: np.concatenate(v) for k, v in regime_masks.items()})
-            place = {"actuator": "elbow", "chamber": c[-1]} if c.startswith("p_") else {"joint": "elbow"}
+            place = ({"actuator": "elbow", "chamber": c[-1]} if c.startswith("p_") else
+                     {"joint": "shaft"} if c == "brace" else {"joint": "elbow"})
             out.append({"where": place, "channel": c, "regime": where["regime"],
                         "level": f"{c} held-out mean square {per[c]:.2f} noise variances; a flexible model cuts it to {after:.2f}",
                         "share_of_residual": float(gain / max(j_all, 1e-300))})

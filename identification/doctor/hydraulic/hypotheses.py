@@ -19,6 +19,7 @@ ALIKE = 0.90         # an alternative buying this share of the best one's improv
 CAL_BOUND = 0.5      # calibration: relative deviation allowed
 DIFF_STEP = 1e-3     # finite-difference step in the scaled parameters
 FIT_SECONDS = 6.0    # fits use at most this much of the fitted part (its start): the doctor's time
+BRACED_FIT_SECONDS = 3.0  # ... and this much of the braced recordings among them
 ROUNDS = 3           # greedy rounds at most
 
 #: calibrated nominal parameters: (name, side) -- each a relative deviation, 0 = nominal.
@@ -47,6 +48,7 @@ class Hypothesis:
     side: str           # "oil" (needs the replay), "mech" (equation errors only) or "both"
     regime: str         # where the physics says it should show
     needs_torque: bool = False
+    braced_side: str | None = None  # the side when braced recordings are given, if another
 
     @property
     def name(self) -> str:
@@ -76,8 +78,10 @@ HYPOTHESES = [
                "all the time (constant)"),
     Hypothesis("force_sensor_offset", JOINT, "torque_sensor_offset_nm", 0.1, -20.0, 20.0, "mech",
                "all the time (constant)", needs_torque=True),
+    # braced, the shaft's twist drives the vane and so the oil replay (replay.vane_speed)
     Hypothesis("shaft_compliance", {"joint": "shaft"}, "shaft_compliance_extra_rad_per_nm", 1e-5, -9e-5, 1e-3,
-               "mech", "shaft oscillations after stick-slip", needs_torque=True),
+               "mech", "shaft oscillations after stick-slip; the braced load's twist", needs_torque=True,
+               braced_side="both"),
 ]
 
 

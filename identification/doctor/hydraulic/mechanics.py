@@ -10,7 +10,13 @@ and the load tendon's damping b_l of the MJCF)::
     load:  J_l theta_l'' = tau + b_s tau' / k_s - b_l theta_l' - W sin(theta_l),
            theta_l = theta_v - tau / k_s, and theta_l'' taken as theta_v'' (see equation_errors)
 
-Each equation's error (left minus right side, N m) is a residual channel, with the measured
+On a braced trace (the load locked, sidecar ``"braced": true``) the load equation does not hold
+(the brace carries the load) and the shaft's law is a channel of its own, ``brace`` [rad]::
+
+    brace:  theta_v - theta_B - tau / k_s = 0,   theta_B the locked load's angle (the trace's mean)
+
+(the encoder's 0.3 mrad noise against a twist of tens of N m / k_s: paper 001 §3.2.2 measures
+the shaft's stiffness this way).  Each equation's error (left minus right side, N m) is a residual channel, with the measured
 pressures and torque as they are (their white noise propagates) and the angle's and torque's
 derivatives from smoothing splines.  The vane equation is scored only while the vane slides
 (|theta_v'| > ``SLIDING_RAD_S``): while it sticks the Coulomb friction is any value in
@@ -95,6 +101,7 @@ def equation_errors(tr, mech: Mechanics, fx: HydraulicEffects) -> dict:
     if tr.torque is None:
         rigid = hydraulic - (mech.j_v + mech.j_l) * qdd - friction - mech.b_l * qd - mech.w * np.sin(q)
         return {"rigid": rigid}
+    out = {}
     compliance = 1.0 / mech.k_s + fx.shaft_compliance_extra_rad_per_nm
     tau = tr.torque - fx.torque_sensor_offset_nm
     tau_s, taud = s["tau"] - fx.torque_sensor_offset_nm, s["taud"]
@@ -106,7 +113,11 @@ def equation_errors(tr, mech: Mechanics, fx: HydraulicEffects) -> dict:
     # as noise far above the shaft mode's share (~0.03 N m); leaving it in bent the load's
     # inertia to its -30 % bound on clean simulated recordings
     load = transmitted - mech.j_l * qdd - mech.b_l * (qd - taud * compliance) - mech.w * np.sin(theta_l)
-    return {"vane": vane, "load": load}
+    out.update(vane=vane, load=load)
+    if tr.braced:
+        twist = tr.angle - fx.angle_sensor_offset_rad - tau * compliance
+        out["brace"] = twist - np.mean(twist[tr.scored])
+    return out
 
 
 def near_transition(time: np.ndarray, qd: np.ndarray, window_s: float = TRANSITION_S) -> np.ndarray:
@@ -126,7 +137,17 @@ def near_transition(time: np.ndarray, qd: np.ndarray, window_s: float = TRANSITI
 def channel_masks(tr, channels) -> dict:
     """channel -> (N,) bool of the samples it is scored on: the vane and rigid equations only
     while sliding, the pressures and the load equation away from stick-slip transitions (where
-    the spline's acceleration of the vane lags the jump)."""
+    the spline's acceleration of the vane lags the jump); on a braced trace the brace channel
+    everywhere and the load and rigid equations nowhere (the brace carries the load); on a
+    free trace the brace channel nowhere."""
     slide = sliding_mask(tr.time, tr.smooth["qd"])
     calm = ~near_transition(tr.time, tr.smooth["qd"])
-    return {c: tr.scored & (slide if c in ("vane", "rigid") else calm) for c in channels}
+    out = {}
+    for c in channels:
+        if c == "brace":
+            out[c] = tr.scored & tr.braced
+        elif tr.braced and c in ("load", "rigid"):
+            out[c] = np.zeros(tr.time.size, bool)
+        else:
+            out[c] = tr.scored & (slide if c in ("vane", "rigid") else calm)
+    return out

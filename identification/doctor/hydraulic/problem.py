@@ -31,8 +31,12 @@ class Problem:
     def __init__(self, cfg0, mech0, train, held):
         self.cfg0, self.mech0, self.train, self.held = cfg0, mech0, train, held
         mech = ["vane", "load"] if train[0].torque is not None else ["rigid"]
-        self.channels = ["p_a", "p_b", *mech]
+        brace = ["brace"] if train[0].torque is not None and any(t.braced for t in train) else []
+        self.channels = ["p_a", "p_b", *mech, *brace]
         self.masks = {id(t): channel_masks(t, self.channels) for t in [*train, *held]}
+        # a channel is scored only where both parts have samples of it (braced recordings alone: no load equation)
+        self.channels = [c for c in self.channels if all(any(self.masks[id(t)][c].any() for t in part)
+                                                         for part in (train, held))]
         self.sigma = {c: 1.0 for c in self.channels}
         self._oil_cache: dict = {}
         self._hyst_cache: dict = {}
@@ -41,7 +45,9 @@ class Problem:
     # -- residuals --------------------------------------------------------------------------
     def oil(self, tr, dev, fx: HydraulicEffects) -> dict:
         """The oil replay of ``tr`` (cached by the oil calibration and the oil-side effects)."""
-        key = (id(tr), *(float(dev[k]) for k in OIL_CAL), *(getattr(fx, f) for f in OIL_FIELDS))
+        # a braced trace's replay is driven by the shaft's twist rate (replay.vane_speed)
+        compliance = 1.0 / self.mech0.k_s + fx.shaft_compliance_extra_rad_per_nm if tr.braced else None
+        key = (id(tr), *(float(dev[k]) for k in OIL_CAL), *(getattr(fx, f) for f in OIL_FIELDS), compliance)
         if key not in self._oil_cache:
             if len(self._oil_cache) > 400:
                 self._oil_cache.clear()
@@ -51,7 +57,7 @@ class Problem:
             if hk not in self._hyst_cache:
                 h = dataclasses.replace(cfg.hysteresis, k0_a=k0)
                 self._hyst_cache[hk] = hysteresis_output(h, tr.current_a)
-            self._oil_cache[key] = replay_oil(tr, cfg, fx, self._hyst_cache[hk])
+            self._oil_cache[key] = replay_oil(tr, cfg, fx, self._hyst_cache[hk], compliance)
             self.replays += 1
         return self._oil_cache[key]
 
@@ -61,6 +67,8 @@ class Problem:
         _, mech = calibrated(self.cfg0, self.mech0, dev)
         out = {"p_a": tr.p_a - pred["p_a"], "p_b": tr.p_b - pred["p_b"]}
         out.update(equation_errors(tr, mech, fx))
+        for c in self.channels:  # a free trace has no brace channel: zeros, masked out
+            out.setdefault(c, np.zeros(tr.time.size))
         return out
 
     def residuals(self, traces, dev, fx) -> dict:
@@ -70,7 +78,7 @@ class Problem:
             r, m = self.sample_residuals(tr, dev, fx), self.masks[id(tr)]
             for c in self.channels:
                 out[c].append(r[c][m[c]])
-        return {c: np.concatenate(v) for c, v in out.items()}
+        return {c: np.concatenate(v) if v else np.zeros(0) for c, v in out.items()}
 
     def vector(self, traces, dev, fx) -> np.ndarray:
         r = self.residuals(traces, dev, fx)
@@ -86,7 +94,7 @@ class Problem:
     def set_noise_floor(self, dev, fx):
         """sigma per channel: the white-noise level of the training residual (third differences)."""
         for c in self.channels:
-            parts = [self.sample_residuals(t, dev, fx)[c][t.scored] for t in self.train]
+            parts = [self.sample_residuals(t, dev, fx)[c][t.scored] for t in self.train if self.masks[id(t)][c].any()]
             self.sigma[c] = max(float(np.median([noise_sd(p) for p in parts])), 1e-9)
 
     def nrmse(self, traces, dev, fx, channel, masks=None) -> float:
@@ -96,7 +104,8 @@ class Problem:
         ref = []
         for t in traces:
             m = self.masks[id(t)][channel]
-            x = t.p_a if channel == "p_a" else t.p_b if channel == "p_b" else self.mech0.d_v * (t.p_a - t.p_b)
+            x = (t.p_a if channel == "p_a" else t.p_b if channel == "p_b" else t.torque / self.mech0.k_s
+                 if channel == "brace" else self.mech0.d_v * (t.p_a - t.p_b))
             ref.append(x[m])
         return float(np.sqrt(np.mean(r ** 2)) / max(np.std(np.concatenate(ref)), 1e-300))
 
@@ -128,9 +137,10 @@ def fit(prob: Problem, hyps, x_eff, dev0, base: HydraulicEffects, sides=("oil", 
     return result, dev, fx
 
 
-def sides_of(hyps) -> tuple[str, ...]:
-    """The calibration sides a fit of ``hyps`` needs (a mechanical effect leaves the oil replay alone)."""
-    sides = {h.side for h in hyps}
+def sides_of(hyps, braced: bool = False) -> tuple[str, ...]:
+    """The calibration sides a fit of ``hyps`` needs (a mechanical effect leaves the oil replay
+    alone, unless ``braced`` recordings make it drive the replay: ``Hypothesis.braced_side``)."""
+    sides = {(h.braced_side or h.side) if braced else h.side for h in hyps}
     return ("oil", "mech") if not sides or "both" in sides else tuple(sorted(sides))
 
 

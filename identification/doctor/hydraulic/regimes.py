@@ -48,6 +48,7 @@ def masks(tr, i_sat: float = 1.0) -> dict:
         "vane sliding fast (> 0.5 rad/s)": np.abs(qd) > 0.5,
         "within 100 ms of a stick-slip transition": _since(t, switch) < REVERSAL_S,
         "large load pressure (top fifth)": np.abs(p_l - np.median(p_l)) > np.quantile(np.abs(p_l - np.median(p_l)), 0.8),
+        "load braced": np.full(t.size, bool(tr.braced)),
     }
 
 

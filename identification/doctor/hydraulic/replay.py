@@ -63,15 +63,18 @@ class Trace:
     scored: np.ndarray          # (N,) bool: after the burn-in
     restart: np.ndarray         # (N,) bool: chamber pressures restarted from the measurement here
     source: str = ""
+    braced: bool = False        # the load locked by the brace (paper 001 Fig. 2a; sidecar "braced")
 
     def head(self, seconds: float) -> Trace:
         m = self.time - self.time[0] <= seconds
         cut = lambda a: None if a is None else a[m]  # noqa: E731
         return Trace(self.time[m], self.current_a[m], self.angle[m], self.p_a[m], self.p_b[m], cut(self.torque),
-                     {k: v[m] for k, v in self.smooth.items()}, self.scored[m], self.restart[m], self.source)
+                     {k: v[m] for k, v in self.smooth.items()}, self.scored[m], self.restart[m], self.source,
+                     self.braced)
 
 
-def make_trace(time, current_a, angle, p_a, p_b, torque=None, source="", restart_s=RESTART_S) -> Trace:
+def make_trace(time, current_a, angle, p_a, p_b, torque=None, source="", restart_s=RESTART_S,
+               braced: bool = False) -> Trace:
     from identification.base.smoothing import smooth_derivatives
 
     t = np.asarray(time, float)
@@ -87,7 +90,7 @@ def make_trace(time, current_a, angle, p_a, p_b, torque=None, source="", restart
         smooth["tau"], smooth["taud"] = smooth_derivatives(t, np.asarray(torque, float), order=1, lam=lam)
     return Trace(t, np.asarray(current_a, float), np.asarray(angle, float), np.asarray(p_a, float),
                  np.asarray(p_b, float), None if torque is None else np.asarray(torque, float), smooth,
-                 rel >= BURN_IN_S, restart, source)
+                 rel >= BURN_IN_S, restart, source, bool(braced))
 
 
 def hysteresis_output(cfg_hysteresis, current_a: np.ndarray) -> np.ndarray:
@@ -133,10 +136,24 @@ def _replay(t, i_tip, theta, omega, restart, pa_m, pb_m, y0, x0, prm, modes, tap
                 step_kernel(y, prm, modes, tap_p, tap_a, x, th, om, h, tap)
 
 
-def replay_oil(tr: Trace, cfg, fx: HydraulicEffects, i_hys: np.ndarray | None = None) -> dict:
+def vane_speed(tr: Trace, shaft_compliance_rad_per_nm: float | None = None) -> np.ndarray:
+    """(N,) the vane's speed [rad/s] the replay is driven by: the smoothed encoder's, or, on a
+    braced trace with a torque sensor and a shaft compliance c given, the shaft's twist rate
+    c dtau/dt (the load is locked, so the vane moves only by the twist, tau = (theta_v -
+    theta_load) / c, sarcos_elbow.xml): the torque's 0.1 N m noise makes it 1e-5 rad, the
+    encoder's 0.3 mrad, and the oil spring (4.5e8 Pa/rad) turns the difference into pressure."""
+    if tr.braced and tr.torque is not None and shaft_compliance_rad_per_nm is not None:
+        return shaft_compliance_rad_per_nm * tr.smooth["taud"]
+    return tr.smooth["qd"]
+
+
+def replay_oil(tr: Trace, cfg, fx: HydraulicEffects, i_hys: np.ndarray | None = None,
+               shaft_compliance_rad_per_nm: float | None = None) -> dict:
     """Predicted ``p_a``, ``p_b`` (as the transducers read them, offsets included) and
     ``p_supply`` [Pa] of trace ``tr`` under fluid parameters ``cfg`` and effects ``fx``.
-    ``i_hys``: the hysteresis output when already known (it depends on the current and k0 only)."""
+    ``i_hys``: the hysteresis output when already known (it depends on the current and k0 only);
+    ``shaft_compliance_rad_per_nm``: the shaft's (nominal + ``fx``'s) for a braced trace
+    (:func:`vane_speed`)."""
     cfg = apply_to_cfg(cfg, fx)
     if i_hys is None:
         i_hys = hysteresis_output(cfg.hysteresis, tr.current_a)
@@ -148,7 +165,7 @@ def replay_oil(tr: Trace, cfg, fx: HydraulicEffects, i_hys: np.ndarray | None = 
     out = np.empty((tr.time.size, 3))
     off_a, off_b = fx.pressure_sensor_offset_a_pa, fx.pressure_sensor_offset_b_pa
     theta = tr.smooth["q"] - fx.angle_sensor_offset_rad
-    _replay(tr.time, i_hys + fx.null_shift_a, theta, tr.smooth["qd"], tr.restart, tr.p_a - off_a,
+    _replay(tr.time, i_hys + fx.null_shift_a, theta, vane_speed(tr, shaft_compliance_rad_per_nm), tr.restart, tr.p_a - off_a,
             tr.p_b - off_b, circ.null_state(),
             float(i_hys[0] + fx.null_shift_a) * cfg.servovalve.tip_travel_m / cfg.hysteresis.saturation_current_a, pack(circ), modes, tap_p, tap_a, phi, gam, n_sub, out)
     return {"p_a": out[:, 0] + off_a, "p_b": out[:, 1] + off_b, "p_supply": out[:, 2]}

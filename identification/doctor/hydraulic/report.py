@@ -17,7 +17,8 @@ from identification.base.reporting import finding_line, jsonable, pyplot, save_f
 from pneumatics.io import atomic_write_json, atomic_write_text
 
 
-UNITS = {"p_a": ("MPa", 1e-6), "p_b": ("MPa", 1e-6), "vane": ("N m", 1.0), "load": ("N m", 1.0), "rigid": ("N m", 1.0)}
+UNITS = {"p_a": ("MPa", 1e-6), "p_b": ("MPa", 1e-6), "vane": ("N m", 1.0), "load": ("N m", 1.0), "rigid": ("N m", 1.0),
+         "brace": ("mrad", 1e3)}
 
 
 def summary(report: dict) -> str:
@@ -64,26 +65,30 @@ def write(report: dict, out: str | Path, plots: bool = True) -> Path:
 
 
 def _plot_fit(report, ctx, out: Path) -> str:
+    """heldout_fit.png: each channel's held-out residual before and after the findings, over
+    the first finding's best window (or 2 s) of the first held-out recording that scores it
+    (a braced recording for the brace channel)."""
     plt = pyplot()
     prob = ctx["problem"]
-    tr = prob.held[0]
     none = type(ctx["fx"])()
-    before, after = prob.sample_residuals(tr, ctx["dev"], none), prob.sample_residuals(tr, ctx["dev"], ctx["fx"])
-    win = report["findings"][0]["windows"][0] if report["findings"] and report["findings"][0]["windows"] else \
-        [float(tr.time[0]) + 0.5, float(tr.time[0]) + 2.5]
-    m = (tr.time >= win[0]) & (tr.time <= win[1])
-    fig, axes = plt.subplots(len(prob.channels), 1, figsize=(9, 2.0 * len(prob.channels)), sharex=True)
+    win = report["findings"][0]["windows"][0] if report["findings"] and report["findings"][0]["windows"] else None
+    fig, axes = plt.subplots(len(prob.channels), 1, figsize=(9, 2.0 * len(prob.channels)))
     for ax, c in zip(np.atleast_1d(axes), prob.channels):
+        tr = next(t for t in prob.held if prob.masks[id(t)][c].any())
+        before, after = prob.sample_residuals(tr, ctx["dev"], none), prob.sample_residuals(tr, ctx["dev"], ctx["fx"])
+        w = win if win is not None and tr.time[0] <= win[0] < tr.time[-1] else [float(tr.time[0]) + 0.5,
+                                                                                 float(tr.time[0]) + 2.5]
+        mk = (tr.time >= w[0]) & (tr.time <= w[1]) & prob.masks[id(tr)][c]
         unit, k = UNITS[c]
-        mk = m & prob.masks[id(tr)][c]
         ax.plot(tr.time[mk], before[c][mk] * k, ".", ms=1.5, label="residual, calibrated model")
         if report["findings"]:
             ax.plot(tr.time[mk], after[c][mk] * k, ".", ms=1.5, label="residual, + findings")
-        ax.set_ylabel(f"{c} [{unit}]", fontsize=8)
+        ax.set_ylabel(f"{c} [{unit}]" + ("\nbraced" if tr.braced else ""), fontsize=8)
         ax.grid(alpha=0.3)
     np.atleast_1d(axes)[0].legend(fontsize=7)
     np.atleast_1d(axes)[0].set_title(f"held-out residuals: {report['verdict_detail']}", fontsize=9)
     np.atleast_1d(axes)[-1].set_xlabel("time [s]")
+    fig.tight_layout()
     save_figure(fig, out / "heldout_fit.png")
     return "heldout_fit.png"
 
