@@ -191,7 +191,8 @@ def make_case(folder: Path, seed: int, family, seconds: float = 20.0, heldout_se
         record_braced(cfg, mass, fx, np.random.default_rng(seed + 4), braced_seconds, "main_braced").to_csv(
             folder / "main_braced.csv")
         held_braced.to_csv(folder / "heldout_braced.csv")
-        recordings.update(main_braced=str(folder / "main_braced.csv"), heldout_braced=str(folder / "heldout_braced.csv"))
+        recordings.update(main_braced=str(folder / "main_braced.csv"),
+                          heldout_braced=str(folder / "heldout_braced.csv"))
     truth = {"seed": seed, "families": families or ["none"], "effects": effects, "r2_nominal_heldout": r2,
              "parameter_errors": {"port_width_m": cfg.servovalve.port_width_m,
                                   "load_mass_factor": mass},

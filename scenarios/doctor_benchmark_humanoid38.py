@@ -8,7 +8,8 @@ two recordings; its answers are compared with the truth.
 Plan (full): every family the registry can place on humanoid38 twice, 4 null cases and 3
 pairs, 60 s + 30 s recordings, seeds from ``PNEUMASIM_HUMANOID_SEED``: unset, the development
 base 7000; a number, that base; "fresh", a base drawn from the operating system's entropy when
-the run starts (kept in seed.json for a resumed run; ``seed_source`` in metrics.json).  ``--fast`` (CI): a null case, a chamber effect
+the run starts (kept in seed.json for a resumed run; ``seed_source`` in metrics.json).
+``--fast`` (CI): a null case, a chamber effect
 (valve_leak) and a joint effect (viscous_friction), 20 s + 10 s, fixed seeds.
 
 Metrics: the strict ones of scenarios/_generalization_metrics.py (``strict_effect_accuracy``,

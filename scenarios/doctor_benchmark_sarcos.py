@@ -94,7 +94,8 @@ def blind_case(case: dict) -> dict:
     """One case (in any sweep worker): make the recordings, run the doctor on the CSVs, judge."""
     seed, fams = case["seed"], case["families"]
     with tempfile.TemporaryDirectory(prefix="sarcos_case_") as work:
-        truth = make_case(Path(work), seed, fams or None, seconds=case["seconds"], heldout_seconds=case["heldout_seconds"],
+        truth = make_case(Path(work), seed, fams or None, seconds=case["seconds"],
+                          heldout_seconds=case["heldout_seconds"],
                           braced_seconds=BRACED_SECONDS, braced_heldout_seconds=BRACED_HELDOUT_SECONDS)
         files = truth["recordings"]
         t0 = time.perf_counter()

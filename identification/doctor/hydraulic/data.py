@@ -99,9 +99,9 @@ def load_traces(model: str, recordings, holdouts=(), holdout_fraction: float = H
         braced_held = any(r.meta.get("braced", False) for r in held)
         if braced_train != braced_held:
             which = "fitted" if braced_train else "held-out"
-            raise RecordingError(f"hydraulic doctor: a braced recording (sidecar \"braced\": true) is among the {which} "
-                                 f"recordings only ({', '.join(r.source for r in [*train, *held] if r.meta.get('braced'))}); "
-                                 "give one to fit and one to hold out, or none")
+            named = ", ".join(r.source for r in [*train, *held] if r.meta.get("braced"))
+            raise RecordingError(f"hydraulic doctor: a braced recording (sidecar \"braced\": true) is among the "
+                                 f"{which} recordings only ({named}); give one to fit and one to hold out, or none")
     else:
         if not 0.05 <= holdout_fraction <= 0.8:
             raise RecordingError(f"hydraulic doctor: holdout_fraction = {holdout_fraction}; expected 0.05-0.8")

@@ -11,7 +11,7 @@ KEEP = 0.05
 simulated null cases of the benchmark's plan (base seeds 3000 and 503751560, extra nulls 9100-9111)
 the best hypothesis of the first round cut J by at most 1.0 %; the earlier 20 % left silent
 effects that cut it by 17 % (a vane leak of 5e-14 m^3/(Pa s), an 18 kPa transducer offset)."""
-MIN_DJ = 0.25        # ... and at least this many noise variances (J: noise variances summed over channels; nulls <= 0.07)
+MIN_DJ = 0.25        # ... and this many noise variances (J: noise variances summed over channels; nulls <= 0.07)
 UNEXPLAINED_SHARE = 0.20  # a flexible model (13-15 regressors) must cut this share of J to report `unexplained`
 UNEXPLAINED_DJ = 1.0      # ... and at least this many noise variances
 MIN_T = 4.0          # |value| / stderr an effect's parameter must reach

@@ -16,7 +16,8 @@ On a braced trace (the load locked, sidecar ``"braced": true``) the load equatio
     brace:  theta_v - theta_B - tau / k_s = 0,   theta_B the locked load's angle (the trace's mean)
 
 (the encoder's 0.3 mrad noise against a twist of tens of N m / k_s: paper 001 §3.2.2 measures
-the shaft's stiffness this way).  Each equation's error (left minus right side, N m) is a residual channel, with the measured
+the shaft's stiffness this way).  Each equation's error (left minus right side, N m) is a
+residual channel, with the measured
 pressures and torque as they are (their white noise propagates) and the angle's and torque's
 derivatives from smoothing splines.  The vane equation is scored only while the vane slides
 (|theta_v'| > ``SLIDING_RAD_S``): while it sticks the Coulomb friction is any value in

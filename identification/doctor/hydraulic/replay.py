@@ -165,7 +165,8 @@ def replay_oil(tr: Trace, cfg, fx: HydraulicEffects, i_hys: np.ndarray | None = 
     out = np.empty((tr.time.size, 3))
     off_a, off_b = fx.pressure_sensor_offset_a_pa, fx.pressure_sensor_offset_b_pa
     theta = tr.smooth["q"] - fx.angle_sensor_offset_rad
-    _replay(tr.time, i_hys + fx.null_shift_a, theta, vane_speed(tr, shaft_compliance_rad_per_nm), tr.restart, tr.p_a - off_a,
+    omega = vane_speed(tr, shaft_compliance_rad_per_nm)
+    _replay(tr.time, i_hys + fx.null_shift_a, theta, omega, tr.restart, tr.p_a - off_a,
             tr.p_b - off_b, circ.null_state(),
             float(i_hys[0] + fx.null_shift_a) * cfg.servovalve.tip_travel_m / cfg.hysteresis.saturation_current_a, pack(circ), modes, tap_p, tap_a, phi, gam, n_sub, out)
     return {"p_a": out[:, 0] + off_a, "p_b": out[:, 1] + off_b, "p_supply": out[:, 2]}
