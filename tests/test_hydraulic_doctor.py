@@ -190,8 +190,12 @@ def test_braced_recordings_reveal_the_chambers_volume_and_the_shaft(braced_cases
     the hidden value."""
     truth = braced_cases[family]
     hyps = ["line_dynamics", "shaft_compliance", "valve_leak", "piston_leak"]
-    assert [f["effect"] for f in _doctor_braced(truth, hyps, braced=False)["findings"]] == []
+    free = _doctor_braced(truth, hyps, braced=False)
+    assert [f["effect"] for f in free["findings"]] == []
+    assert free["diagnostics"]["weakly_observable"] == ["line_dynamics", "shaft_compliance"]
+    assert "line_dynamics, shaft_compliance barely show" in summary(free)  # the user is told what to record
     rep = _doctor_braced(truth, hyps)
+    assert rep["diagnostics"]["weakly_observable"] == [] and "barely show" not in summary(rep)
     assert "brace" in rep["diagnostics"]["channels"]
     first = rep["findings"][0]
     assert first["effect"] == family and first["where"] == truth["effects"][0]["where"]

@@ -92,9 +92,23 @@ def diagnose_hydraulic(model: str, recordings: list[Recording], holdouts: list[R
                         "heldout_seconds": sum(float(t.time[-1] - t.time[0]) for t in held),
                         "heldout_j": {"nominal": j_nominal, "calibrated": j_base, "final": state["j"]},
                         "heldout_ms_over_noise": per_final, "replays": prob.replays,
-                        "hypotheses_tested": [h.name for h in hyps], "seconds": time.perf_counter() - t_start},
+                        "hypotheses_tested": [h.name for h in hyps], "seconds": time.perf_counter() - t_start,
+                        "weakly_observable": _weakly_observable(prob, hyps)},
         "_plot": {"problem": prob, "dev": state["dev"], "fx": state["fx"]},
     }
+
+
+#: families the free arm's recordings barely show (docs/hydraulic_doctor.md, Limits), which
+#: braced recordings reveal: a chamber's volume (the encoder's noise through the oil spring is
+#: as large as its signal) and the shaft's stiffness (its mode 2-3 times the torque's noise)
+SEEN_BRACED = ("line_dynamics", "shaft_compliance")
+
+
+def _weakly_observable(prob: Problem, hyps) -> list[str]:
+    """The tested families these recordings barely show: SEEN_BRACED without a braced recording."""
+    if any(t.braced for t in [*prob.train, *prob.held]):
+        return []
+    return [f for f in SEEN_BRACED if f in {h.effect for h in hyps}]
 
 
 def _fit_parts(train, fit_seconds: float) -> list:

@@ -32,6 +32,11 @@ def summary(report: dict) -> str:
     for u in report["unexplained"]:
         lines.append(f"  unexplained at {' '.join(str(v) for v in u['where'].values())} ({u['level']}), "
                      f"{u['regime']}: {100 * u['share_of_residual']:.0f} % of the held-out J")
+    weak = [f for f in report["diagnostics"].get("weakly_observable", [])
+            if f not in {x["effect"] for x in report["findings"]}]
+    if weak:
+        lines += [f"note: {', '.join(weak)} barely show in free-arm recordings;",
+                  "      record the elbow braced too (sidecar \"braced\": true) to test them"]
     return "\n".join(lines)
 
 
