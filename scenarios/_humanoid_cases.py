@@ -16,7 +16,8 @@ halvings.  humanoid38's actuators are arm2's kind (cylinders and vanes, valve ar
 factor of five of arm2's), so such an effect is small against the whole robot yet meant to
 show on its own chamber or joint.  Whether it is
 concealed (the nominal model's held-out R^2 >= 0.9) is not checked: on 76 chambers the
-restarted replays cost about as much as the doctor (docs/humanoid_doctor.md).
+restarted replays cost about as much as the doctor (docs/humanoid_doctor.md).  Only a recording
+the doctor's reading checks would refuse is made again with the effects halved (MAX_HALVINGS).
 
 The robot tracks one of humanoid38's standard references under the calibrated PIDF (what
 scenarios/humanoid38_tracking.py does with the fast valve calibration): the controller and the
@@ -29,6 +30,7 @@ import functools
 import numpy as np
 
 from pneumatics.effects.family import place_names
+from pneumatics.errors import RecordingError
 from pneumatics.robot import load_robot
 
 from ._cases import BENCHMARK_FAMILIES, effects_of, perturbed_valves, truth_of
@@ -36,6 +38,10 @@ from ._cases import BENCHMARK_FAMILIES, effects_of, perturbed_valves, truth_of
 MODEL = "humanoid38"
 PARAM_ERROR = 0.03
 CONCEAL_SCALE = (0.25, 0.5)
+MAX_HALVINGS = 4
+"""A recording the doctor's reading checks refuse (a joint far outside its range: MuJoCo's soft
+limit gave way where a real stop holds) is made again with the effects halved, at most this
+many times; a null case's is an error."""
 
 
 def humanoid_families() -> list[str]:
@@ -84,6 +90,23 @@ def controller():
     return cfg, lin, standard_references(MODEL, "normal")
 
 
+def refusal(robot, *recordings) -> str | None:
+    """Why the doctor's reading checks (pneumatics.recording_checks.check_for_robot) would refuse
+    one of ``recordings`` of ``robot``, or None."""
+    import warnings
+
+    from pneumatics.recording_checks import check_for_robot
+
+    for rec in recordings:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                check_for_robot(rec, robot)
+        except RecordingError as e:
+            return str(e)
+    return None
+
+
 def make_case(seed: int, families: list[str], seconds: float, heldout_seconds: float):
     """(main recording, held-out recording, truth dict) of one case; the held-out recording
     tracks a different reference with a different noise seed."""
@@ -94,11 +117,19 @@ def make_case(seed: int, families: list[str], seconds: float, heldout_seconds: f
     drawn = [draw_on_humanoid(f, rng, nominal) for f in families]
     scale = float(rng.uniform(*CONCEAL_SCALE)) if families else 1.0
     robot, factors = perturbed_humanoid(rng)
-    effects = effects_of(drawn, scale)
     cfg, lin, refs = controller()
     k = int(rng.integers(0, len(refs)))
-    main = track(robot, cfg, refs[k], lin, seconds, seed=2 * seed + 1, effects=effects)
-    held = track(robot, cfg, refs[(k + 1) % len(refs)], lin, heldout_seconds, seed=2 * seed + 2, effects=effects)
+    for halvings in range(MAX_HALVINGS + 1):
+        effects = effects_of(drawn, scale)
+        main = track(robot, cfg, refs[k], lin, seconds, seed=2 * seed + 1, effects=effects)
+        held = track(robot, cfg, refs[(k + 1) % len(refs)], lin, heldout_seconds, seed=2 * seed + 2, effects=effects)
+        refused = refusal(nominal, main, held)
+        if refused is None:
+            break
+        if not families or halvings == MAX_HALVINGS:
+            raise RecordingError(f"humanoid38 case {seed}: the doctor would refuse its recording "
+                                 f"({refused}){' with the effects halved ' + str(halvings) + ' times' if families else ''}")
+        scale *= 0.5
     truth = {"seed": seed, "families": list(families) or ["none"], "effects": [truth_of(d, scale) for d in drawn],
              "scale": scale, "parameter_factors": factors, "perturbation_fraction": PARAM_ERROR,
              "references": [k, (k + 1) % len(refs)]}

@@ -92,3 +92,33 @@ def test_a_fresh_humanoid_run_draws_its_base_and_a_resumed_one_keeps_it(tmp_path
     (tmp_path / "metrics.json").write_text("{}")  # finished: the next run draws anew
     assert seed_base_from_env(SEED_ENV, DEVELOPMENT_SEED_BASE, tmp_path)[0] != base
     assert plan(False, base)[0][0][0] == base
+
+
+def test_a_recording_the_doctor_would_refuse_is_made_again_with_the_effect_halved(monkeypatch):
+    """MuJoCo's soft joint limit can let a joint pass far beyond its range where a real stop
+    holds; the doctor refuses such a recording (recording_checks), so the case maker halves the
+    hidden effect and records again; a null case that does it is an error naming the column."""
+    import scenarios._humanoid_cases as hc
+    import scenarios.humanoid38_tracking as tracking
+    from pneumatics.errors import RecordingError
+    from pneumatics.recording import Recording
+
+    robot = load_robot("humanoid38")
+    calls = []
+
+    def fake_track(robot_, cfg, ref, lin, seconds, seed, effects):
+        calls.append(seed)
+        t = np.arange(0.0, 1.0, 0.01)
+        cols = {f"q.{n}": np.zeros_like(t) for n in robot.joint_names}
+        if len(calls) <= 4:  # the first two attempts (main and held-out each) push the ankle past its stop
+            cols["q.right_ankle_roll"] = np.linspace(-0.7, 0.3, t.size)
+        return Recording(t, cols, {}, "fake")
+
+    monkeypatch.setattr(hc, "controller", lambda: (None, None, [None, None]))
+    monkeypatch.setattr(tracking, "track", fake_track)
+    _, _, truth = hc.make_case(11, ["viscous_friction"], 1.0, 1.0)
+    assert len(calls) == 6
+    assert hc.CONCEAL_SCALE[0] / 4 <= truth["scale"] <= hc.CONCEAL_SCALE[1] / 4  # halved twice
+    calls.clear()
+    with pytest.raises(RecordingError, match=r"humanoid38 case 12: .*q\.right_ankle_roll"):
+        hc.make_case(12, [], 1.0, 1.0)
