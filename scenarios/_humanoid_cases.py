@@ -40,8 +40,9 @@ PARAM_ERROR = 0.03
 CONCEAL_SCALE = (0.25, 0.5)
 MAX_HALVINGS = 4
 """A recording the doctor's reading checks refuse (a joint far outside its range: MuJoCo's soft
-limit gave way where a real stop holds) is made again with the effects halved, at most this
-many times; a null case's is an error."""
+limit gave way where a real stop holds; a chamber reading below zero absolute: a transducer
+offset no absolute sensor can show) is made again with the effects halved, at most this many
+times; a null case's is an error."""
 
 
 def humanoid_families() -> list[str]:
