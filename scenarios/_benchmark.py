@@ -22,7 +22,6 @@ def seed_base_from_env(env: str, development: int, out=None) -> tuple[int, str]:
     system's entropy -- or, when ``out`` holds the ``seed.json`` of an unfinished run (no
     metrics.json yet), the one that run drew, so a resumed run keeps its seeds.  The caller
     writes ``seed.json`` (:func:`remember_seed_base`)."""
-    import json
     import os
 
     from pneumatics.errors import ConfigError
@@ -31,15 +30,23 @@ def seed_base_from_env(env: str, development: int, out=None) -> tuple[int, str]:
     if given is None:
         return development, "development"
     if given.strip().lower() == "fresh":
-        stored = None if out is None else out / "seed.json"
-        if stored is not None and stored.is_file() and not (out / "metrics.json").exists():
-            s = json.loads(stored.read_text())
-            return int(s["seed_base"]), s["seed_source"]
-        return fresh_seed_base(), "fresh"
+        return (None if out is None else stored_seed_base(out)) or (fresh_seed_base(), "fresh")
     try:
         return int(given), "given"
     except ValueError:
         raise ConfigError(f"{env}={given!r}: expected a whole number (the base seed) or 'fresh'") from None
+
+
+def stored_seed_base(out) -> tuple[int, str] | None:
+    """(base seed, source) an unfinished run into ``out`` drew (its ``seed.json``, no
+    metrics.json yet), or None."""
+    import json
+
+    stored = out / "seed.json"
+    if stored.is_file() and not (out / "metrics.json").exists():
+        s = json.loads(stored.read_text())
+        return int(s["seed_base"]), s["seed_source"]
+    return None
 
 
 def remember_seed_base(out, base: int, source: str) -> None:

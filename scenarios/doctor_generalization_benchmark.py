@@ -25,7 +25,6 @@ seeds (``seed.json`` in the unfinished folder) and its finished cases.
 """
 from __future__ import annotations
 
-import json
 import os
 import time
 from pathlib import Path
@@ -41,7 +40,7 @@ from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 from workflow.sweep import options_from_env, raise_on_failure, sweep
 
-from ._benchmark import confusion_matrix, fresh_seed_base, plot_confusion
+from ._benchmark import confusion_matrix, fresh_seed_base, plot_confusion, remember_seed_base, stored_seed_base
 from ._generalization_metrics import OUTSIDE, case_kind, generalization_metrics, strict_effect_right, strict_location_right
 from ._variantsim.cases import GeneratorError, make_case
 from .common import main
@@ -117,11 +116,7 @@ def choose_seed_base(out: Path, fast: bool) -> tuple[int, str]:
             raise ConfigError(f"{SEED_ENV}={given!r}: expected a whole number (the base seed)") from None
     if fast:
         return FAST_SEED_BASE, "given"
-    stored = out / "seed.json"
-    if stored.is_file() and not (out / "metrics.json").exists():
-        s = json.loads(stored.read_text())
-        return int(s["seed_base"]), s["seed_source"]
-    return fresh_seed_base(), "fresh"
+    return stored_seed_base(out) or (fresh_seed_base(), "fresh")
 
 
 def generator_unknown(names) -> list[str]:
@@ -222,7 +217,7 @@ def run(ctx):
     unknown = generator_unknown(f for c in cases for f in c["families"])
     if unknown:
         raise _unknown_error(unknown)
-    atomic_write_json(ctx.out / "seed.json", {"seed_base": base, "seed_source": source})
+    remember_seed_base(ctx.out, base, source)
     print(f"doctor_generalization_benchmark: {len(cases)} cases, seeds {base}..{base + len(cases) - 1} ({source})")
     results = sweep(generalization_case, [{**c, "index": i, "seed": base + i, "seconds": seconds,
                                            "heldout_seconds": held_s, "out": str(ctx.out / "cases")}
