@@ -86,12 +86,18 @@ def reference(rng, seconds: float):
     return ref
 
 
-def record(cfg, mass_factor: float, fx: HydraulicEffects, rng, seconds: float, name: str):
-    """One noisy closed-loop recording of the true elbow with effects ``fx``."""
+def true_elbow(cfg, mass_factor: float, fx: HydraulicEffects = HydraulicEffects()):
+    """The true elbow: fluid ``cfg``, the load's mass and inertia scaled by ``mass_factor``, effects ``fx``."""
     sim = build_sim(fx, cfg=cfg)
     load = sim.model.body("load").id
     sim.model.body_mass[load] *= mass_factor
     sim.model.body_inertia[load] *= mass_factor
+    return sim
+
+
+def record(cfg, mass_factor: float, fx: HydraulicEffects, rng, seconds: float, name: str):
+    """One noisy closed-loop recording of the true elbow with effects ``fx``."""
+    sim = true_elbow(cfg, mass_factor, fx)
     sim.reset()
     ref = reference(rng, seconds)
     rec = run_measured(sim, lambda t: KP_A_PER_RAD * (ref(t) - sim.vane_angle), seconds, rate_hz=RATE_HZ,
@@ -108,10 +114,7 @@ def braced_currents(rng):
 
 def record_braced(cfg, mass_factor: float, fx: HydraulicEffects, rng, seconds: float, name: str):
     """One noisy braced recording of the true elbow with effects ``fx`` (sidecar "braced": true)."""
-    sim = build_sim(fx, cfg=cfg)
-    load = sim.model.body("load").id
-    sim.model.body_mass[load] *= mass_factor
-    sim.model.body_inertia[load] *= mass_factor
+    sim = true_elbow(cfg, mass_factor, fx)
     sim.reset(braced=True)
     rec = run_measured(sim, braced_currents(rng), seconds, rate_hz=RATE_HZ, rng=rng, name=name)
     return add_sensor_offsets(rec, fx)
@@ -122,9 +125,13 @@ def r2_braced(rec, cfg, mech) -> dict:
     tr = make_trace(rec.time, rec["i.elbow"], rec["q.elbow"], rec["p_a.elbow"], rec["p_b.elbow"], rec["tau.elbow"],
                     braced=True)
     pred = replay_oil(tr, cfg, HydraulicEffects(), shaft_compliance_rad_per_nm=1.0 / mech.k_s)
+    return {f"braced_{c}": r2 for c, r2 in _pressure_r2(tr, pred).items()}
+
+
+def _pressure_r2(tr, pred) -> dict:
+    """R^2 of each chamber pressure of trace ``tr`` against the replay ``pred``, scored samples."""
     m = tr.scored
-    return {f"braced_{c}": float(1 - np.mean((getattr(tr, c) - pred[c])[m] ** 2) / np.var(getattr(tr, c)[m]))
-            for c in ("p_a", "p_b")}
+    return {c: float(1 - np.mean((getattr(tr, c) - pred[c])[m] ** 2) / np.var(getattr(tr, c)[m])) for c in ("p_a", "p_b")}
 
 
 def r2_nominal(rec, cfg, mech) -> dict:
@@ -133,9 +140,7 @@ def r2_nominal(rec, cfg, mech) -> dict:
     from identification.doctor.hydraulic.mechanics import channel_masks, equation_errors
 
     tr = make_trace(rec.time, rec["i.elbow"], rec["q.elbow"], rec["p_a.elbow"], rec["p_b.elbow"], rec["tau.elbow"])
-    pred = replay_oil(tr, cfg, HydraulicEffects())
-    m = tr.scored
-    out = {c: float(1 - np.mean((getattr(tr, c) - pred[c])[m] ** 2) / np.var(getattr(tr, c)[m])) for c in ("p_a", "p_b")}
+    out = _pressure_r2(tr, replay_oil(tr, cfg, HydraulicEffects()))
     tr.torque = None
     e = equation_errors(tr, mech, HydraulicEffects())["rigid"]
     mk = channel_masks(tr, ["rigid"])["rigid"]
@@ -166,10 +171,7 @@ def make_case(folder: Path, seed: int, family, seconds: float = 20.0, heldout_se
     for fam in families:
         field, where, draw = FAMILIES[fam][int(rng.integers(0, len(FAMILIES[fam])))]
         drawn.append((fam, field, where, float(draw(rng))))
-    true_sim = build_sim(cfg=cfg)
-    true_sim.model.body_mass[true_sim.model.body("load").id] *= mass
-    true_sim.model.body_inertia[true_sim.model.body("load").id] *= mass
-    mech = from_model(true_sim, cfg.vane.displacement_m3_per_rad)
+    mech = from_model(true_elbow(cfg, mass), cfg.vane.displacement_m3_per_rad)
     scale, fx = 1.0, HydraulicEffects()
     for _ in range(6 if drawn else 1):  # conceal: halve until the model without them keeps R^2 >= 0.9
         fx = HydraulicEffects(**{field: v * scale for _, field, _, v in drawn})
