@@ -46,11 +46,11 @@ times; a null case's is an error."""
 
 
 def humanoid_families() -> list[str]:
-    """The benchmark families the registry can place on humanoid38 (its place kind has places)."""
+    """The benchmark families the simulator can place on humanoid38 (``Family.places``)."""
     robot = load_robot(MODEL)
     from pneumatics.effects.registry import get_family
 
-    return [f for f in BENCHMARK_FAMILIES if place_names(robot, get_family(f).place_kind)]
+    return [f for f in BENCHMARK_FAMILIES if get_family(f).places(robot)]
 
 
 def perturbed_humanoid(rng: np.random.Generator, fraction: float = PARAM_ERROR):
@@ -70,12 +70,20 @@ def perturbed_humanoid(rng: np.random.Generator, fraction: float = PARAM_ERROR):
 
 
 def draw_on_humanoid(family: str, rng: np.random.Generator, robot):
-    """(family, place, parameters): ``family`` at a random place of its kind on humanoid38."""
+    """(family, place, parameters): ``family`` at a random place of its kind on humanoid38 that
+    the simulator can put it at (``Family.places``: a backlash needs a joint-transmission
+    actuator).  The place is drawn among all places of the kind first, and again among the
+    possible ones only when the first draw is not one of them, so a case whose first draw
+    stands keeps the draws it had before the restriction."""
     from pneumatics.effects.registry import get_family
 
     fam = get_family(family)
     places = place_names(robot, fam.place_kind)
-    return fam, places[int(rng.integers(0, len(places)))], fam.draw(rng)
+    place = places[int(rng.integers(0, len(places)))]
+    possible = fam.places(robot)
+    if place not in possible:
+        place = possible[int(rng.integers(0, len(possible)))]
+    return fam, place, fam.draw(rng)
 
 
 @functools.lru_cache(maxsize=1)

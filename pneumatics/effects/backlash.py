@@ -204,6 +204,13 @@ class DeadZone:
     gap_rad: float = param(0.0, "total play (the drive moves gap/2 either way of the link freely)", "rad", 0.0, 1.0)
 
 
+def _driving(robot, joint: str) -> list[int]:
+    """Indices into ``robot.actuator_ids`` of the joint-transmission actuators turning ``joint``."""
+    m, jid = robot.model, robot.model.joint(joint).id
+    return [k for k, i in enumerate(robot.actuator_ids)
+            if int(m.actuator_trntype[i]) == int(mujoco.mjtTrn.mjTRN_JOINT) and int(m.actuator_trnid[i, 0]) == jid]
+
+
 class Backlash(Family):
     name = "backlash"
     place_kind = "joint"
@@ -216,13 +223,17 @@ class Backlash(Family):
     def effect_set_entry(self, params):
         return {"backlash": {"gap_rad": params.gap_rad}}
 
+    def places(self, robot) -> list[str]:
+        """The joints a joint-transmission actuator drives: backlash_model splits such a joint
+        into a drive hinge and the link; a cylinder on pins pulling a spatial tendon (13 of
+        humanoid38's joints) has no drive-side hinge to put a play on."""
+        return [j for j in robot.joint_names if _driving(robot, j)]
+
     def apply_to_mods(self, mods, robot, place, params):
         """PneumaticMods.backlash_rad, per actuator: the one that turns joint ``place``."""
         if place not in robot.joint_names:
             raise UnknownNameError("joint", place, robot.joint_names)
-        m, jid = robot.model, robot.model.joint(place).id
-        driving = [k for k, i in enumerate(robot.actuator_ids)
-                   if int(m.actuator_trntype[i]) == int(mujoco.mjtTrn.mjTRN_JOINT) and int(m.actuator_trnid[i, 0]) == jid]
+        driving = _driving(robot, place)
         if not driving:
             raise PneumasimError(f"backlash: joint {place!r} is driven by no joint-transmission actuator")
         arr = np.zeros(len(robot.actuator_ids)) if mods.backlash_rad is None else np.array(mods.backlash_rad, float)

@@ -142,6 +142,11 @@ class Family(ABC):
         raise NotOnThisSide(f"{self.name}: the doctor's torque balance does not model it")
 
     # -- benchmarks ----------------------------------------------------------------------------
+    def places(self, robot) -> list[str]:
+        """The places of ``robot`` the simulator can put this family at (every place of its
+        kind unless the family needs more of it)."""
+        return place_names(robot, self.place_kind)
+
     def draw(self, rng: np.random.Generator):
         """Parameters of a hidden effect, drawn from magnitudes a real robot shows."""
         raise NotOnThisSide(f"{self.name}: the arm case makers do not draw it")
