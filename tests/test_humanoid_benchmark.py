@@ -35,23 +35,23 @@ def test_every_family_draws_a_place_of_humanoid38():
 def test_a_backlash_is_drawn_only_where_a_joint_transmission_actuator_can_carry_its_play():
     """humanoid38's 13 cylinders on pins pull spatial tendons: backlash_model has no drive hinge
     to split there (a fresh benchmark case failed so); its other 25 joints are turned directly.  A
-    first draw at a vane joint stands as it was; one at a cylinder joint is drawn again."""
+    first draw at one of those stands as it was; one at a cylinder on pins is drawn again."""
     from pneumatics.effects.backlash import backlash_model
+    from pneumatics.effects.registry import get_family
+    from pneumatics.errors import PneumasimError
 
     robot = load_robot("humanoid38")
-    from pneumatics.effects.registry import get_family
-
     possible = get_family("backlash").places(robot)
     assert "left_hip_pitch" not in possible and "jaw" in possible and len(possible) == 25
     joints = robot.joint_names
     for seed in range(40):
         first = joints[int(np.random.default_rng(seed).integers(0, len(joints)))]
-        _, place, params = draw_on_humanoid("backlash", np.random.default_rng(seed), robot)
+        _, place, _ = draw_on_humanoid("backlash", np.random.default_rng(seed), robot)
         assert place in possible
         if first in possible:
             assert place == first
     backlash_model(robot, {possible[0]: 0.01})  # builds
-    with pytest.raises(Exception, match="joint-transmission"):
+    with pytest.raises(PneumasimError, match="joint-transmission"):
         backlash_model(robot, {"left_hip_pitch": 0.01})
 
 
