@@ -117,11 +117,29 @@ class ReplayResult:
         return {c: 1.0 - v ** 2 for c, v in self.nrmse().items()}
 
 
+def backlash_gaps(robot, pmods: PneumaticMods) -> dict:
+    """joint -> the backlash [rad] of the actuator driving it (``pmods.backlash_rad``; only > 0)."""
+    if pmods.backlash_rad is None:
+        return {}
+    return {robot.model.joint(int(robot.model.actuator_trnid[robot.actuator_ids[j], 0])).name: float(g)
+            for j, g in enumerate(pmods.backlash_rad) if g > 0}
+
+
+def drive_signs(robot, pmods: PneumaticMods, forces: np.ndarray) -> np.ndarray:
+    """(W, J) the side each backlash's drive starts in contact on: the sign of the torque its
+    cylinder pushes with (``forces`` (W, n_act) at the windows' starts); 0 without backlash."""
+    sign = np.zeros((forces.shape[0], len(robot.joint_names)))
+    ids = robot.actuator_ids
+    for j, g in enumerate([] if pmods.backlash_rad is None else pmods.backlash_rad):
+        if g > 0:
+            joint = robot.model.joint(int(robot.model.actuator_trnid[ids[j], 0])).name
+            sign[:, robot.joint_names.index(joint)] = np.sign(robot.model.actuator_gear[ids[j], 0] * forces[:, j])
+    return sign
+
+
 def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horizon_s: float = 1.0) -> ReplayResult:
     robot = exp.robot
-    gaps = {} if pmods.backlash_rad is None else {
-        robot.model.joint(int(robot.model.actuator_trnid[robot.actuator_ids[j], 0])).name: float(g)
-        for j, g in enumerate(pmods.backlash_rad) if g > 0}
+    gaps = backlash_gaps(robot, pmods)
     # backlash: MuJoCo carries the play (pneumatics.effects.backlash); the chambers follow the drive
     model = mmods.model(backlash_model(robot, gaps) if gaps else robot.model)
     S = exp.n_sub
@@ -138,14 +156,7 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
     q0 = true_angle(fq[starts * S], offset, scale)
     qd0 = (fq[starts * S + 1] - fq[starts * S - 1]) / (2 * FINE_DT) / (1.0 + scale)
     p = initial_pressure(exp, starts, pmods)
-    sign = np.zeros((W, J))
-    if gaps:  # each drive starts in contact on the side its cylinder pushes
-        torque_sign = np.sign(robot.model.actuator_gear[ids, 0] * actuator_force(robot.tables, p))  # (W, n_act)
-        for j, g in enumerate(pmods.backlash_rad):
-            if g > 0:
-                joint = robot.model.joint(int(robot.model.actuator_trnid[ids[j], 0])).name
-                sign[:, robot.joint_names.index(joint)] = torque_sign[:, j]
-    set_drive_state(model, datas, q0, qd0, sign, robot.joint_names)
+    set_drive_state(model, datas, q0, qd0, drive_signs(robot, pmods, actuator_force(robot.tables, p)), robot.joint_names)
     for d in datas:
         mujoco.mj_forward(model, d)
     chambers = ChamberModel(robot, pmods, W)
