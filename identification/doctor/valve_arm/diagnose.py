@@ -28,15 +28,15 @@ from pneumatics.recording import validate
 from pneumatics.recording_checks import check_for_robot
 from pneumatics.robot import Robot
 
+from .angle_replay import body_calibration_check, final_mech_mods
 from .calibrate import fit_chambers, pressure_sigma
 from .data import MIN_ROWS, pool, prepare, split
-from .final_fit import (final_calibration, final_joint_fit, follow_angle_sensors, scale_stderr, withdraw_worsening,
-                        worsening)
+from .final_fit import (final_calibration, final_joint_fit, follow_angle_sensors, scale_stderr,
+                        withdraw_angle_worsening, withdraw_worsening, worsening)
 from .fitted_model import fitted_model
 from .locate import Located, locate, mods_without_all
-from .mechanics import fit_rigid_body, torque_data
+from .mechanics import fit_rigid_body, hold_nominal, torque_data
 from .pneumatic import PneumaticMods, Windows
-from .naming import add_breakaway
 from .replay import MechMods, coupled_replay
 from .rules import HOLDOUT_SHARE, HORIZON, DoctorRun, Finding
 from .search import search_mechanical, search_pneumatic, start_torque_balance
@@ -70,6 +70,7 @@ def _diagnose(robot: Robot, recordings, holdouts, progress) -> dict:
     search_mechanical(run, say)
     final_joint_fit(run)
     follow_angle_sensors(run)
+    withdraw_angle_worsening(run, say)
     final_cal, cal_se, flags = final_calibration(run)
     say("locating regimes and windows")
     located = locate(run, flags)
@@ -87,6 +88,7 @@ def _diagnose(robot: Robot, recordings, holdouts, progress) -> dict:
         withdraw_worsening(run, worse[0])
         final_joint_fit(run)
         follow_angle_sensors(run)
+        withdraw_angle_worsening(run, say)
         final_cal, cal_se, flags = final_calibration(run)
         located = locate(run, flags)
         replays = _prove(run)
@@ -128,10 +130,20 @@ def _calibrated_run(robot: Robot, recordings, holdouts, say) -> tuple[DoctorRun,
     mods, cfit = fit_chambers(exp, win, nominal, sigma)
     say("calibrating the rigid body (masses, damping, armature)")
     td, td_h = torque_data(exp), torque_data(held)
+    rfit = fit_rigid_body(td)
+    body_check = body_calibration_check(held, mods, rfit)
+    if not body_check["kept"]:
+        why = (f"the calibrated rigid body replayed the held-out angles worse than the nominal one (summed squared "
+               f"NRMSE {body_check['calibrated_sum_nrmse2']:.3g} against {body_check['nominal_sum_nrmse2']:.3g})")
+        say("the rigid body's calibration replays the held-out angles worse: the nominal body is kept")
+        hold_nominal(td, why)
+        hold_nominal(td_h, why)
+        rfit = fit_rigid_body(td)
     run = DoctorRun(robot, exp, held, win,
                     fit_win=Windows.tile(len(exp.t), HORIZON, stride=2 * HORIZON, breaks=exp.breaks),
                     win_h=Windows.tile(len(held.t), HORIZON, breaks=held.breaks),
-                    sigma=sigma, nominal=nominal, mods=mods, cfit=cfit, td=td, td_h=td_h, rfit=fit_rigid_body(td))
+                    sigma=sigma, nominal=nominal, mods=mods, cfit=cfit, td=td, td_h=td_h, rfit=rfit,
+                    body_check=body_check)
     return run, held_recs
 
 
@@ -141,10 +153,7 @@ def _prove(run: DoctorRun) -> dict:
     channel it improves most, overall and in each regime of its place."""
     robot, held = run.robot, run.held
     mm_base = MechMods.from_fit(run.rfit, robot.joint_names)
-    mm_final = MechMods.from_fit(run.final_rfit, robot.joint_names, run.extra_terms)
-    mm_final.end_stops = {h.joint: (h.fixed["stop_rad"]["value"], h.fixed["side_sign"]["value"])
-                          for h in run.kept_mech if h.family == "end_stop"}
-    add_breakaway(mm_final, run.findings, len(robot.joint_names))
+    mm_final = final_mech_mods(run)
     # before the findings: the chambers as calibrated on the angles as read
     base_held, base_mods = (held, run.mods) if run.read is None else (run.read[1], run.read[2])
     base_replay = coupled_replay(base_held, mods_without_all(base_mods, run.findings), mm_base)
@@ -192,6 +201,7 @@ def _report(run: DoctorRun, located: Located, replays: dict, calibrated: dict, f
             "rigid_body_condition": rfit.condition,
             "parameters_at_bounds": cfit.at_bound + rfit.at_bound,
             "rigid_body_kept_nominal": dict(td.fixed or {}),
+            "rigid_body_calibration_replay": run.body_check,
             **tests,
             "ljung_box_q_heldout_pressure": {k: v["after"]["q"] for k, v in tests["ljung_box_heldout_pressure"].items()},
             "train_seconds": float(run.exp.t[-1] - run.exp.t[0]),

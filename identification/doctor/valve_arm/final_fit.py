@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .angle_replay import angle_worsening
 from .calibrate import chamber_names as calibration_names
 from .calibrate import fit_chambers
 from .data import with_true_lengths
@@ -62,8 +63,8 @@ def _withdraw_failing(run: DoctorRun, failing: list, replay_offset: np.ndarray) 
             if h in run.refine:
                 replay_offset[h.chambers[0]] = 0.0
                 run.mods = apply_offset(run.mods, h.chambers[0], 0.0, run.n_chambers)
-        run.td = torque_data(corrected(run.exp, run.mods))
-        run.td_h = torque_data(corrected(run.held, run.mods))
+        run.td = torque_data(corrected(run.exp, run.mods), held_nominal=run.td.held_nominal)
+        run.td_h = torque_data(corrected(run.held, run.mods), held_nominal=run.td.held_nominal)
         run.rfit = fit_rigid_body(run.td)
     drop_torque_terms(run, failing)
 
@@ -98,13 +99,14 @@ def worsening(run: DoctorRun) -> list:
     return sorted(out, key=lambda f: -f.nrmse["after"] / max(f.nrmse["before"], 1e-300))
 
 
-def withdraw_worsening(run: DoctorRun, f) -> None:
-    """Withdraw finding ``f`` (:func:`worsening`) and set the torque balance up without it; the
-    final joint fit is then run again.  A finding in a richer form of its family (an angle
-    offset with its sensor's gain) falls back to the family's first form instead, which the
-    next coupled replay judges in turn: the torque balance alone chose the richer form."""
-    why = (f"makes the held-out coupled replay worse: NRMSE of {f.nrmse['channel']} "
-           f"{f.nrmse['before']:.3g} before, {f.nrmse['after']:.3g} after")
+def withdraw_worsening(run: DoctorRun, f, why: str | None = None) -> None:
+    """Withdraw finding ``f`` (:func:`worsening`, or ``why`` another replay's reason) and set the
+    torque balance up without it; the final joint fit is then run again.  A finding in a richer
+    form of its family (an angle offset with its sensor's gain) falls back to the family's first
+    form instead, which the next replay judges in turn: the torque balance alone chose the
+    richer form."""
+    why = why or (f"makes the held-out coupled replay worse: NRMSE of {f.nrmse['channel']} "
+                  f"{f.nrmse['before']:.3g} before, {f.nrmse['after']:.3g} after")
     if _may_fall_back(run, f.scored.hyp):
         _fall_back(run, f.scored.hyp, why)
         drop_torque_terms(run, [])
@@ -112,6 +114,22 @@ def withdraw_worsening(run: DoctorRun, f) -> None:
     run.withdrawn.append({"effect": f.family, "where": f.where, "final_parameters": dict(f.params), "why": why})
     run.findings.remove(f)
     drop_torque_terms(run, [f.scored.hyp])
+
+
+def withdraw_angle_worsening(run: DoctorRun, say=None) -> None:
+    """The keep rule on the joint angles (angle_replay): while a finding of the torque balance
+    (friction, stiction, an end stop, an angle or pressure sensor's offset) makes its joint's
+    held-out angle worse in the pressure-driven replay, the worst is withdrawn and the final
+    joint fit run again."""
+    while worse := angle_worsening(run):
+        f, j, before, after = worse[0]
+        channel = f"q.{run.robot.joint_names[j]}"
+        if say:
+            say(f"withdrawing {f.family} at {f.where}: it makes the held-out angle worse")
+        withdraw_worsening(run, f, f"makes its joint's held-out angle worse in the rigid body's replay driven by the "
+                                   f"measured pressures: NRMSE of {channel} {before:.4g} without it, {after:.4g} with it")
+        final_joint_fit(run)
+        follow_angle_sensors(run)
 
 
 def _fall_back(run: DoctorRun, hyp, why: str, params: dict | None = None) -> None:

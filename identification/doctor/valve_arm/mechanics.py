@@ -75,6 +75,7 @@ class TorqueData:
     calibration: Fit = None     # calibrate_rigid_body's result, whose inertias the effect fits hold
     joint_ok: np.ndarray = None  # (N, J) False where a joint's equation is left out (a coupled joint near its limit)
     dtau_drate: np.ndarray = None  # (N, J, J) d tau_inv / d g_k: joint k's rates read (1 + g_k) times (angle sensor gain)
+    held_nominal: str = ""      # why the rigid body is held at its nominal values ("": calibrated; hold_nominal)
 
     def mask(self, x: np.ndarray) -> np.ndarray:
         """x (N, J, ...) with the equations ``joint_ok`` leaves out set to zero (a zero row of
@@ -161,7 +162,8 @@ def _inverse(model, qadr, dadr, q, qd, qdd, ids=None, forces=None, moments=False
     return out, act
 
 
-def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge: int = 10) -> TorqueData:
+def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge: int = 10,
+                held_nominal: str = "") -> TorqueData:
     robot = exp.robot
     model = robot.model
     # equality constraints (e.g. a brace) are off in recordings of the free robot
@@ -232,7 +234,7 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
     if lowpass >= 0.4 * exp.rate_hz:  # noise-free angles: the spline interpolates, nothing to match
         lowpass = np.inf
     td = TorqueData(tau_act, tau_inv, np.stack(regs, axis=2), names, np.array(lo), np.array(hi), valid, dtau_dq,
-                    dtau_dp, exp.rate_hz, lowpass, tuple(exp.breaks), joint_ok=joint_ok)
+                    dtau_dp, exp.rate_hz, lowpass, tuple(exp.breaks), joint_ok=joint_ok, held_nominal=held_nominal)
     td.tau_act, td.tau_inv, td.regressors = td.mask(tau_act), td.mask(tau_inv), td.mask(td.regressors)
     td.dtau_dq, td.dtau_dp, td.dtau_drate = td.mask(dtau_dq), td.mask(dtau_dp), td.mask(dtau_drate)
     return td
@@ -268,6 +270,8 @@ def calibrate_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_
     an effect the first calibration partly absorbed (an encoder offset taken up as 8 % less
     upper-link mass) hands the inertias back.  Returns the rigid body's part as a Fit (scales
     are relative changes: 0 = nominal), also kept as ``td.calibration``."""
+    if td.held_nominal:
+        return _nominal_calibration(td)
     A, y = td.decimate(td.regressors), td.decimate(td.residual)
     P = len(td.names)
     names, lo, hi, n_e = list(td.names), td.lower, td.upper, 0
@@ -289,6 +293,20 @@ def calibrate_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_
         scale = scale * np.std(fit.residual.reshape(-1, len(scale)), axis=0)
     td.calibration = replace(fit, names=names[:P], values=fit.values[:P], stderr=fit.stderr[:P],
                              at_bound=[n for n in fit.at_bound if n in td.names])
+    return td.calibration
+
+
+def hold_nominal(td: TorqueData, why: str) -> Fit:
+    """Hold ``td``'s rigid body at its nominal masses, damping and armature from now on
+    (``calibrate_rigid_body`` then returns zeros, every parameter ``fixed`` with ``why``)."""
+    td.held_nominal = why
+    return _nominal_calibration(td)
+
+
+def _nominal_calibration(td: TorqueData) -> Fit:
+    P = len(td.names)
+    td.fixed = {n: td.held_nominal for n in td.names}
+    td.calibration = Fit(list(td.names), np.zeros(P), np.full(P, np.nan), 0.0, 0, 1.0, [], np.zeros(0))
     return td.calibration
 
 

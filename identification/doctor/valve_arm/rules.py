@@ -127,6 +127,8 @@ class DoctorRun:
     """(hypothesis, values, standard errors) of every kept term at the final joint fit"""
     withdrawn: list = field(default_factory=list)
     """findings withdrawn because they failed the keep rule at the final joint fit"""
+    body_check: dict = field(default_factory=dict)
+    """the rigid body's calibration judged on the held-out angles (angle_replay.body_calibration_check)"""
 
     @property
     def n_chambers(self) -> int:

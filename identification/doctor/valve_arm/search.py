@@ -158,7 +158,9 @@ def offset_seen_by_torque_balance(run: DoctorRun, finding: Finding) -> bool:
     j = run.robot.joint_names.index(a) if a in run.robot.joint_names else 0
     block = mech_block(run.held)
     before = torque_rms(run.td_h, run.rfit, None, block)[j]  # run.rfit: the rigid body fitted to run.td
-    td_c, td_hc = torque_data(corrected(run.exp, finding.scored.mods)), torque_data(corrected(run.held, finding.scored.mods))
+    hold = run.td.held_nominal
+    td_c = torque_data(corrected(run.exp, finding.scored.mods), held_nominal=hold)
+    td_hc = torque_data(corrected(run.held, finding.scored.mods), held_nominal=hold)
     after = torque_rms(td_hc, fit_rigid_body(td_c), None, block)[j]
     return bool(after <= before)
 
@@ -171,8 +173,8 @@ def start_torque_balance(run: DoctorRun) -> None:
     supply and room asymptotes; the torque balance sees it everywhere as a force error."""
     mods = run.mods
     if any(a is not None and np.any(a != 0) for a in (mods.sensor_offset_pa, mods.sensor_drift_pa)):
-        run.td = torque_data(corrected(run.exp, mods))
-        run.td_h = torque_data(corrected(run.held, mods))
+        run.td = torque_data(corrected(run.exp, mods), held_nominal=run.td.held_nominal)
+        run.td_h = torque_data(corrected(run.held, mods), held_nominal=run.td.held_nominal)
         run.rfit = fit_rigid_body(run.td)
     run.refine = [h for h in mechanical_hypotheses(run.robot) if h.family == "pressure_sensor_offset"
                   and any(f.family == "pressure_sensor_offset" and f.where == h.where for f in run.findings)]
