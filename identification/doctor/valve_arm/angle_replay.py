@@ -6,11 +6,11 @@ The torque balance (mechanics.py) is an *equation error*: the measured pressures
 against inverse dynamics at the angles' spline derivatives.  Where the motion carries power
 the samples do not resolve -- humanoid38 under its PIDF limit-cycles at 9-14 Hz at every
 joint, a few degrees, with harmonics up to and past the 50 Hz Nyquist frequency of a 100 Hz
-DAQ -- the spline's accelerations are off by 9-29 % (rms) and inverse dynamics with them by as much
-as the actuators' own torque at the waist and arms, on a recording of the model itself.  That
-error is systematic (the same motion gives it in the held-out data) and correlates with the
-light joints' velocities: a torque-balance fit then names viscous friction at the jaw on a
-recording of the nominal robot (docs/humanoid_doctor.md).
+DAQ -- the spline's accelerations are off by 9-29 % (rms) and inverse dynamics with them by
+as much as the actuators' own torque at the waist and arms, on a recording of the model
+itself.  That error is systematic (the same motion gives it in the held-out data) and
+correlates with the light joints' velocities: a torque-balance fit then names viscous friction
+at the jaw on a recording of the nominal robot (docs/humanoid_doctor.md).
 
 The *simulation (output) error* does not need the accelerations (Ljung, *System
 Identification*, 2nd ed., 1999, §4.2 on the output-error model structure; for robots, Gautier,
@@ -21,10 +21,11 @@ the replay tests the mechanics alone) and the findings' torques, and its DAQ mea
 with the recorded angles.  A finding of the torque balance whose held-out angle of its own
 joint is replayed worse than without it is withdrawn -- the keep rule issue 17 asks of every
 reported finding, on the channel the finding is about -- and the rigid body's calibration is
-held nominal when it replays the held-out angles clearly worse than the nominal body.  Measured on held-out
-recordings of humanoid38 (seeds 7000-7004, development data, the nominal body): the jaw's
-false viscous friction (0.0185 N m s/rad) raised the jaw angle's NRMSE 1.7-3.3 times on all
-five; the true viscous friction of three of them lowered their joint's 1.16-6.7 times.
+held nominal when it replays the held-out angles clearly worse than the nominal body.
+Measured on held-out recordings of humanoid38 (seeds 7000-7004, development data, the nominal
+body): the jaw's false viscous friction (0.0185 N m s/rad) raised the jaw angle's NRMSE
+1.7-3.3 times on all five; the true viscous friction of three of them lowered their joint's
+1.16-6.7 times.
 """
 from __future__ import annotations
 
