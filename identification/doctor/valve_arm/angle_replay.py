@@ -33,13 +33,13 @@ import mujoco
 import numpy as np
 
 from pneumatics.chamber import actuator_force
-from pneumatics.effects.angle_sensor_offset import reading_error, true_angle
+from pneumatics.effects.angle_sensor_offset import reading_error
 from pneumatics.effects.backlash import addresses, backlash_model, set_drive_state
 
-from .data import FINE_DT, Experiment, fine_pressures
+from .data import Experiment, fine_pressures
 from .naming import add_breakaway
 from .pneumatic import PneumaticMods, Windows
-from .replay import MechMods, backlash_gaps, drive_signs
+from .replay import MechMods, backlash_gaps, drive_signs, start_state
 from .rules import DoctorRun, Finding
 from .sensor_offsets import apply_offset
 
@@ -83,11 +83,7 @@ def pressure_driven_angles(exp: Experiment, pmods: PneumaticMods, mm: MechMods,
     H = max(1, int(round(horizon_s * exp.rate_hz)))
     starts = Windows.tile(len(exp.t), H, breaks=exp.breaks).starts
     qadr, dadr = addresses(model, robot.joint_names)
-    offset = np.zeros(J) if mm.angle_offset_rad is None else mm.angle_offset_rad
-    scale = np.zeros(J) if mm.angle_scale_error is None else mm.angle_scale_error
-    fq = exp.fine_q
-    q0 = true_angle(fq[starts * S], offset, scale)
-    qd0 = (fq[starts * S + 1] - fq[starts * S - 1]) / (2 * FINE_DT) / (1.0 + scale)
+    offset, scale, q0, qd0 = start_state(exp, starts, mm)
     forces = actuator_force(robot.tables, fine_pressures(exp, pmods))       # (F, n_act)
     datas = [mujoco.MjData(model) for _ in starts]
     set_drive_state(model, datas, q0, qd0, drive_signs(robot, pmods, forces[starts * S]), robot.joint_names)
@@ -162,23 +158,9 @@ def judged(run: DoctorRun) -> list[tuple[Finding, int, PneumaticMods, MechMods]]
             continue
         if id(h) in judged_terms:
             out.append((f, h.joint, run.mods, final_mech_mods(run, f)))
-        elif h in run.kept_mech and f.family == "pressure_sensor_offset":
-            j = actuator_joint(run.robot, h.chambers[0] // 2)
-            if j is not None:
-                out.append((f, j, apply_offset(run.mods, h.chambers[0], 0.0, run.n_chambers), final_mech_mods(run)))
+        elif h in run.kept_mech and f.family == "pressure_sensor_offset":  # judged at its cylinder's joint
+            out.append((f, h.joint, apply_offset(run.mods, h.chambers[0], 0.0, run.n_chambers), final_mech_mods(run)))
     return out
-
-
-def actuator_joint(robot, a: int) -> int | None:
-    """The joint actuator ``a`` drives: the one its transmission turns, else the one it is
-    named after (a cylinder on pins pulling a tendon), else None."""
-    m = robot.model
-    i = robot.actuator_ids[a]
-    if int(m.actuator_trntype[i]) == int(mujoco.mjtTrn.mjTRN_JOINT):
-        name = m.joint(int(m.actuator_trnid[i, 0])).name
-    else:
-        name = robot.actuator_names[a]
-    return robot.joint_names.index(name) if name in robot.joint_names else None
 
 
 def angle_worsening(run: DoctorRun) -> list[tuple[Finding, int, float, float]]:

@@ -137,6 +137,18 @@ def drive_signs(robot, pmods: PneumaticMods, forces: np.ndarray) -> np.ndarray:
     return sign
 
 
+def start_state(exp: Experiment, starts: np.ndarray, mmods: MechMods) -> tuple:
+    """(offset, scale error (J,), true angles, velocities (W, J)) at the windows' ``starts``: the
+    lightly smoothed angles read back through ``mmods``'s angle-sensor law."""
+    J = len(exp.robot.joint_names)
+    offset = mmods.angle_offset_rad if mmods.angle_offset_rad is not None else np.zeros(J)
+    scale = mmods.angle_scale_error if mmods.angle_scale_error is not None else np.zeros(J)
+    f0, fq = starts * exp.n_sub, exp.fine_q
+    q0 = true_angle(fq[f0], offset, scale)
+    qd0 = (fq[f0 + 1] - fq[f0 - 1]) / (2 * FINE_DT) / (1.0 + scale)
+    return offset, scale, q0, qd0
+
+
 def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horizon_s: float = 1.0) -> ReplayResult:
     robot = exp.robot
     gaps = backlash_gaps(robot, pmods)
@@ -150,11 +162,7 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
     qadr, dadr = addresses(model, robot.joint_names)
     ids = robot.actuator_ids
     datas = [mujoco.MjData(model) for _ in range(W)]
-    fq = exp.fine_q
-    offset = mmods.angle_offset_rad if mmods.angle_offset_rad is not None else np.zeros(J)
-    scale = mmods.angle_scale_error if mmods.angle_scale_error is not None else np.zeros(J)
-    q0 = true_angle(fq[starts * S], offset, scale)
-    qd0 = (fq[starts * S + 1] - fq[starts * S - 1]) / (2 * FINE_DT) / (1.0 + scale)
+    offset, scale, q0, qd0 = start_state(exp, starts, mmods)
     p = initial_pressure(exp, starts, pmods)
     set_drive_state(model, datas, q0, qd0, drive_signs(robot, pmods, actuator_force(robot.tables, p)), robot.joint_names)
     for d in datas:
