@@ -20,7 +20,8 @@ from .screening import Scored
 
 HORIZON = 30               # samples per pressure-replay window (0.3 s at 100 Hz)
 HOLDOUT_SHARE = 0.3        # the end of each recording held out when no held-out files are given
-MIN_PREDICTED = 0.02       # score-test gain worth a full fit
+MIN_PREDICTED = 0.02       # score-test gain worth a full fit, a share of the squared residual of ...
+SCREEN_CHAMBERS = 4        # ... at most this many chambers' worth (min_predicted): arm2's four
 PNEU_KEEP = 0.20           # held-out reduction of the located chambers' mean square to keep an effect
 MECH_KEEP = 0.10           # held-out reduction of the joint's torque residual mean square ...
 MECH_BLOCK_S = 0.1         # ... of its 0.1 s means: the equation error's broadband part comes from
@@ -151,3 +152,17 @@ def passes_keep_rule(values, stderrs) -> bool:
     a bound has none: the gain came from what was refitted with it)."""
     values, stderrs = np.asarray(values, float), np.asarray(stderrs, float)
     return bool(np.all(np.isfinite(stderrs)) and np.all(stderrs > 0) and np.all(np.abs(values) >= MIN_T * stderrs))
+
+
+def min_predicted(n_chambers: int) -> float:
+    """The score-test gain worth a full fit on a robot of ``n_chambers`` chambers.
+
+    The score test's gain is a share of the squared residual of every chamber (screening.
+    _score_gain), of which one chamber's effect can only touch its own: on humanoid38's 76
+    chambers a share of MIN_PREDICTED would ask a chamber's valve leak to remove more than that
+    chamber's whole residual (development seed 702: 1e-8 m² at neck_pitch.b, 0.013 of the
+    total, the best-scored place by eight times, never fitted).  So the share is counted over at
+    most SCREEN_CHAMBERS chambers' worth of residual (the mean chamber's times four); arm2's is
+    MIN_PREDICTED itself."""
+    return MIN_PREDICTED * min(1.0, SCREEN_CHAMBERS / max(n_chambers, 1))
+

@@ -26,7 +26,6 @@ from .rules import (
     MECH_BLOCK_S,
     MECH_KEEP,
     MIN_FITS,
-    MIN_PREDICTED,
     MIN_T,
     FIT_WITHIN,
     PARSIMONY,
@@ -35,6 +34,7 @@ from .rules import (
     DoctorRun,
     Finding,
     keeps,
+    min_predicted,
     passes_keep_rule,
 )
 from .sensor_offsets import corrected, offset_place
@@ -64,7 +64,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
         hyps = [h for h in pneumatic_hypotheses(run.robot) if h.label not in run.tried]
         scored, _ = score_pneumatic(exp, run.win, run.mods, hyps, run.sigma)
         scored.sort(key=lambda s: -s.predicted_gain)
-        cands = [s for s in scored if s.predicted_gain >= MIN_PREDICTED]
+        cands = [s for s in scored if s.predicted_gain >= min_predicted(run.robot.tables.n_chambers)]
         top = worth_fitting(cands)
         positive = [s for s in scored if s.predicted_gain > 0]
         top += rivals(top, positive)
