@@ -109,3 +109,18 @@ def test_a_humanoid38_null_that_limit_cycles_gets_no_finding():
     report = diagnose(load_robot("humanoid38"), [main], [held])
     assert report["findings"] == [] and report["unexplained"] == []
     assert not report["diagnostics"]["rigid_body_calibration_replay"]["kept"]
+
+
+def test_where_the_body_was_held_nominal_a_tie_does_not_keep_a_finding():
+    """The torque balance's findings must not make their joint's replayed angle worse; where
+    the calibrated rigid body replayed the angles worse than the nominal one (the torque
+    balance does not predict this recording), they must make it better."""
+    from identification.doctor.valve_arm.angle_replay import TIE_RATIO, fails_angle_rule
+
+    better_by_a_tie = 0.04 / (0.5 * (1.0 + TIE_RATIO))      # inside the tie, towards better
+    for body_kept in (True, False):
+        assert fails_angle_rule(0.04, 0.04 * 1.02, body_kept)         # worse
+        assert not fails_angle_rule(0.04, 0.04 / 1.16, body_kept)     # a true viscous friction's least
+    assert not fails_angle_rule(0.04, better_by_a_tie, body_kept=True)
+    assert fails_angle_rule(0.04, better_by_a_tie, body_kept=False)
+    assert fails_angle_rule(0.03987, 0.03973, body_kept=False)      # humanoid38 seed 709's false angle offset

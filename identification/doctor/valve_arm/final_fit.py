@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .angle_replay import angle_worsening
+from .angle_replay import TIE_RATIO, angle_worsening
 from .calibrate import chamber_names as calibration_names
 from .calibrate import fit_chambers
 from .data import with_true_lengths
@@ -119,15 +119,17 @@ def withdraw_worsening(run: DoctorRun, f, why: str | None = None) -> None:
 def withdraw_angle_worsening(run: DoctorRun, say=None) -> None:
     """The keep rule on the joint angles (angle_replay): while a finding of the torque balance
     (friction, stiction, an end stop, an angle or pressure sensor's offset) makes its joint's
-    held-out angle worse in the pressure-driven replay, the worst is withdrawn and the final
-    joint fit run again."""
+    held-out angle worse in the pressure-driven replay (or, where the rigid body was held
+    nominal, does not make it better), the worst is withdrawn and the final joint fit run
+    again."""
     while worse := angle_worsening(run):
         f, j, before, after = worse[0]
         channel = f"q.{run.robot.joint_names[j]}"
+        verdict = "worse" if after > TIE_RATIO * before else "no better (the rigid body held nominal)"
         if say:
-            say(f"withdrawing {f.family} at {f.where}: it makes the held-out angle worse")
-        withdraw_worsening(run, f, f"makes its joint's held-out angle worse in the rigid body's replay driven by the "
-                                   f"measured pressures: NRMSE of {channel} {before:.4g} without it, {after:.4g} with it")
+            say(f"withdrawing {f.family} at {f.where}: it makes the held-out angle {verdict}")
+        withdraw_worsening(run, f, f"makes its joint's held-out angle {verdict} in the rigid body's replay driven by "
+                                   f"the measured pressures: NRMSE of {channel} {before:.4g} without it, {after:.4g} with it")
         final_joint_fit(run)
         follow_angle_sensors(run)
 
