@@ -46,7 +46,24 @@ def summary(report: dict) -> str:
     flags = d["calibration_flags"]
     if flags:
         lines.append(f"  calibration moved > 10 %: {', '.join(flags[:6])}{' ...' if len(flags) > 6 else ''}")
+    if not d.get("rigid_body_calibration_replay", {}).get("kept", True):
+        lines.append("  rigid body held nominal: calibrated, it replayed the held-out angles worse (motion faster "
+                     "than the recording resolves?); joint findings kept only where they improve the replayed angle")
     return "\n".join(lines)
+
+
+def kept_nominal_lines(kept: dict, shown: int = 6) -> list[str]:
+    """report.md's lines for the rigid-body parameters held nominal (``kept``: name -> why),
+    one line per reason: a body held nominal as a whole (humanoid38's 114 masses, dampings and
+    armatures) is one line, not 114."""
+    by_why: dict[str, list[str]] = {}
+    for name, why in kept.items():
+        by_why.setdefault(why, []).append(name)
+    lines = []
+    for why, names in by_why.items():
+        listed = ", ".join(names[:shown]) + (f" and {len(names) - shown} more" if len(names) > shown else "")
+        lines.append(f"- kept nominal, {listed}: {why}")
+    return lines
 
 
 def write(report: dict, out: str | Path, robot=None, rerun: bool = True) -> Path:
@@ -222,7 +239,7 @@ def _markdown(report, pngs, fitted: bool = False) -> str:
               f"- pressure noise floor (from the data): {d['pressure_noise_pa']:.0f} Pa",
               f"- condition numbers (scaled J^T J): chambers {d['calibration_condition']:.3g}, rigid body {d['rigid_body_condition']:.3g}",
               f"- parameters at their bounds: {', '.join(d['parameters_at_bounds']) or 'none'}"]
-    lines += [f"- kept nominal, {k}: {why}" for k, why in d.get("rigid_body_kept_nominal", {}).items()] + [""]
+    lines += kept_nominal_lines(d.get("rigid_body_kept_nominal", {})) + [""]
     xc = d["input_xcorr_heldout_pressure"]
     lines += ["Residual tests (Ljung) on the held-out pressure replays, before → after the findings: "
               "whiteness (Ljung-Box Q, lags 1-20; χ²(20) 95 % point 31) and the largest cross-correlation "
