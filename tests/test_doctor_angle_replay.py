@@ -115,12 +115,12 @@ def test_where_the_body_was_held_nominal_a_tie_does_not_keep_a_finding():
     """The torque balance's findings must not make their joint's replayed angle worse; where
     the calibrated rigid body replayed the angles worse than the nominal one (the torque
     balance does not predict this recording), they must make it better."""
-    from identification.doctor.valve_arm.angle_replay import TIE_RATIO, fails_angle_rule
+    from identification.doctor.valve_arm.angle_replay import TIE_RATIO, angle_rule_verdict
 
     better_by_a_tie = 0.04 / (0.5 * (1.0 + TIE_RATIO))      # inside the tie, towards better
     for body_kept in (True, False):
-        assert fails_angle_rule(0.04, 0.04 * 1.02, body_kept)         # worse
-        assert not fails_angle_rule(0.04, 0.04 / 1.16, body_kept)     # a true viscous friction's least
-    assert not fails_angle_rule(0.04, better_by_a_tie, body_kept=True)
-    assert fails_angle_rule(0.04, better_by_a_tie, body_kept=False)
-    assert fails_angle_rule(0.03987, 0.03973, body_kept=False)      # humanoid38 seed 709's false angle offset
+        assert angle_rule_verdict(0.04, 0.04 * 1.02, body_kept) == "worse"
+        assert angle_rule_verdict(0.04, 0.04 / 1.16, body_kept) is None     # a true viscous friction's least
+    assert angle_rule_verdict(0.04, better_by_a_tie, body_kept=True) is None
+    assert angle_rule_verdict(0.04, better_by_a_tie, body_kept=False).startswith("no better")
+    assert angle_rule_verdict(0.03987, 0.03973, body_kept=False).startswith("no better")  # seed 709's false offset

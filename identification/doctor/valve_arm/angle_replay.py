@@ -163,20 +163,24 @@ def judged(run: DoctorRun) -> list[tuple[Finding, int, PneumaticMods, MechMods]]
     return out
 
 
-def fails_angle_rule(before: float, after: float, body_kept: bool = True) -> bool:
-    """Whether a finding that takes its joint's replayed angle from NRMSE ``before`` to
-    ``after`` is withdrawn: worse beyond a tie (TIE_RATIO); where the rigid body was held
-    nominal (not ``body_kept``), also a tie."""
-    return after > TIE_RATIO * before or (not body_kept and TIE_RATIO * after >= before)
+def angle_rule_verdict(before: float, after: float, body_kept: bool = True) -> str | None:
+    """Why a finding that takes its joint's replayed angle from NRMSE ``before`` to ``after``
+    is withdrawn, or None when it is kept: "worse" beyond a tie (TIE_RATIO); where the rigid
+    body was held nominal (not ``body_kept``), also "no better" for a tie."""
+    if after > TIE_RATIO * before:
+        return "worse"
+    if not body_kept and TIE_RATIO * after >= before:
+        return "no better (the rigid body held nominal)"
+    return None
 
 
-def angle_worsening(run: DoctorRun) -> list[tuple[Finding, int, float, float]]:
-    """(finding, its joint, the joint's held-out angle NRMSE without it, with it) for every
+def angle_worsening(run: DoctorRun) -> list[tuple[Finding, int, float, float, str]]:
+    """(finding, its joint, the joint's held-out angle NRMSE without it, with it, why) for every
     judged finding whose replay of its joint's angle is worse than TIE_RATIO times the one
-    without it, the worst first.  The margin is a tie's, not the coupled replay's 10 %
-    (final_fit.WORSE_RATIO, whose chambers drift on their own): this replay restarts from
-    measured pressures and angles every 0.2 s, and a finding is reported to show the held-out
-    fit improve.
+    without it (``why``: angle_rule_verdict's), the worst first.  The margin is a tie's, not
+    the coupled replay's 10 % (final_fit.WORSE_RATIO, whose chambers drift on their own): this
+    replay restarts from measured pressures and angles every 0.2 s, and a finding is reported
+    to show the held-out fit improve.
 
     Where the rigid body's calibration was held nominal (``run.body_check``: the torque balance
     fitted on this recording did not predict its angles), a tie is not enough: the torque
@@ -193,6 +197,7 @@ def angle_worsening(run: DoctorRun) -> list[tuple[Finding, int, float, float]]:
     for f, j, pmods, mm in found:
         after = angle_nrmse(run.held, with_all, j)
         before = angle_nrmse(run.held, pressure_driven_angles(run.held, pmods, mm), j)
-        if fails_angle_rule(before, after, body_kept):
-            out.append((f, j, before, after))
+        verdict = angle_rule_verdict(before, after, body_kept)
+        if verdict:
+            out.append((f, j, before, after, verdict))
     return sorted(out, key=lambda x: -x[3] / max(x[2], 1e-300))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .angle_replay import TIE_RATIO, angle_worsening
+from .angle_replay import angle_worsening
 from .calibrate import chamber_names as calibration_names
 from .calibrate import fit_chambers
 from .data import with_true_lengths
@@ -123,9 +123,8 @@ def withdraw_angle_worsening(run: DoctorRun, say=None) -> None:
     nominal, does not make it better), the worst is withdrawn and the final joint fit run
     again."""
     while worse := angle_worsening(run):
-        f, j, before, after = worse[0]
+        f, j, before, after, verdict = worse[0]
         channel = f"q.{run.robot.joint_names[j]}"
-        verdict = "worse" if after > TIE_RATIO * before else "no better (the rigid body held nominal)"
         if say:
             say(f"withdrawing {f.family} at {f.where}: it makes the held-out angle {verdict}")
         withdraw_worsening(run, f, f"makes its joint's held-out angle {verdict} in the rigid body's replay driven by "
