@@ -182,8 +182,9 @@ def angle_worsening(run: DoctorRun) -> list[tuple[Finding, int, float, float, st
     replay restarts from measured pressures and angles every 0.2 s, and a finding is reported
     to show the held-out fit improve.
 
-    Where the rigid body's calibration was held nominal (``run.body_check``: the torque balance
-    fitted on this recording did not predict its angles), a tie is not enough: the torque
+    Where the rigid body's calibration was held nominal (``run.td.held_nominal``, set from
+    ``body_calibration_check``: the torque balance fitted on this recording did not predict its
+    angles), a tie is not enough: the torque
     balance's word is not evidence there, so a finding is kept only when it improves its
     joint's angle beyond the tie (humanoid38 development seed 709: a false 0.0038 rad angle
     offset at left_hip_pitch, NRMSE 0.03987 -> 0.03973; true viscous frictions improved their
@@ -191,7 +192,7 @@ def angle_worsening(run: DoctorRun) -> list[tuple[Finding, int, float, float, st
     found = judged(run)
     if not found:
         return []
-    body_kept = run.body_check.get("kept", True)
+    body_kept = not run.td.held_nominal
     with_all = pressure_driven_angles(run.held, run.mods, final_mech_mods(run))
     out = []
     for f, j, pmods, mm in found:
