@@ -9,11 +9,11 @@ from .calibrate import chamber_names as calibration_names
 from .calibrate import fit_chambers
 from .data import with_true_lengths
 from .hypotheses import mechanical_hypotheses
-from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
+from .mechanics import calibrate_rigid_body, fit_rigid_body
 from .rules import MIN_T, DoctorRun, keeps
 from .screening import stack_terms
-from .search import mech_attr
-from .sensor_offsets import apply_offset, corrected, offset_of_term
+from .search import corrected_torque_data, mech_attr
+from .sensor_offsets import apply_offset, offset_of_term
 
 
 def final_joint_fit(run: DoctorRun) -> None:
@@ -63,8 +63,7 @@ def _withdraw_failing(run: DoctorRun, failing: list, replay_offset: np.ndarray) 
             if h in run.refine:
                 replay_offset[h.chambers[0]] = 0.0
                 run.mods = apply_offset(run.mods, h.chambers[0], 0.0, run.n_chambers)
-        run.td = torque_data(corrected(run.exp, run.mods), held_nominal=run.td.held_nominal)
-        run.td_h = torque_data(corrected(run.held, run.mods), held_nominal=run.td.held_nominal)
+        run.td, run.td_h = corrected_torque_data(run, run.mods)
         run.rfit = fit_rigid_body(run.td)
     drop_torque_terms(run, failing)
 

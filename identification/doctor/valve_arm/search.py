@@ -147,6 +147,15 @@ def close_place(run: DoctorRun, finding: Finding, scored: list) -> None:
     run.tried.add(finding.scored.hyp.label)
 
 
+def corrected_torque_data(run: DoctorRun, mods) -> tuple:
+    """(fitting, held-out) torque data of the run's recordings with the sensor offsets of
+    ``mods`` taken out of the measured pressures, the rigid body held nominal or not as the
+    run's torque data are (``td.held_nominal``)."""
+    hold = run.td.held_nominal
+    return (torque_data(corrected(run.exp, mods), held_nominal=hold),
+            torque_data(corrected(run.held, mods), held_nominal=hold))
+
+
 def offset_seen_by_torque_balance(run: DoctorRun, finding: Finding) -> bool:
     """Whether the torque balance agrees with a pressure-sensor offset the replays found: the
     offset changes the reading, not the cylinder's force, so taking it out of the measured
@@ -158,9 +167,7 @@ def offset_seen_by_torque_balance(run: DoctorRun, finding: Finding) -> bool:
     j = run.robot.joint_names.index(a) if a in run.robot.joint_names else 0
     block = mech_block(run.held)
     before = torque_rms(run.td_h, run.rfit, None, block)[j]  # run.rfit: the rigid body fitted to run.td
-    hold = run.td.held_nominal
-    td_c = torque_data(corrected(run.exp, finding.scored.mods), held_nominal=hold)
-    td_hc = torque_data(corrected(run.held, finding.scored.mods), held_nominal=hold)
+    td_c, td_hc = corrected_torque_data(run, finding.scored.mods)
     after = torque_rms(td_hc, fit_rigid_body(td_c), None, block)[j]
     return bool(after <= before)
 
@@ -173,8 +180,7 @@ def start_torque_balance(run: DoctorRun) -> None:
     supply and room asymptotes; the torque balance sees it everywhere as a force error."""
     mods = run.mods
     if any(a is not None and np.any(a != 0) for a in (mods.sensor_offset_pa, mods.sensor_drift_pa)):
-        run.td = torque_data(corrected(run.exp, mods), held_nominal=run.td.held_nominal)
-        run.td_h = torque_data(corrected(run.held, mods), held_nominal=run.td.held_nominal)
+        run.td, run.td_h = corrected_torque_data(run, mods)
         run.rfit = fit_rigid_body(run.td)
     run.refine = [h for h in mechanical_hypotheses(run.robot) if h.family == "pressure_sensor_offset"
                   and any(f.family == "pressure_sensor_offset" and f.where == h.where for f in run.findings)]
