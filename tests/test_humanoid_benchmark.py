@@ -55,22 +55,26 @@ def test_a_backlash_is_drawn_only_where_a_joint_transmission_actuator_can_carry_
         backlash_model(robot, {"left_hip_pitch": 0.01})
 
 
-@pytest.mark.slow
+@pytest.mark.heavy
 def test_fast_humanoid38_benchmark(tmp_path, monkeypatch):
-    """--fast (issue 17: in CI): a null case, a chamber and a joint effect, 20 s + 10 s, and
-    the arm2 timing case, in this process."""
+    """--fast (issue 17: in CI): a null case, a valve leak at one of the 76 chambers and a
+    viscous friction at one of the 38 joints, 20 s + 10 s each, and the arm2 timing case, in
+    this process (about 9 minutes on one core).  The null stays clean, nothing hidden goes
+    unreported, and the leaking chamber is named first."""
     from scenarios.common import run_scenario
 
     monkeypatch.setenv("PNEUMASIM_BACKEND", "inline")
     m = run_scenario("doctor_benchmark_humanoid38", tmp_path, fast=True, quiet=True)
     assert m["cases"] == 3 and m["null_cases"] == 1 and m["single_cases"] == 2
-    for key in ("strict_effect_accuracy", "strict_location_accuracy", "null_false_discovery_rate",
-                "silent_miss_rate", "lenient_effect_accuracy"):
-        assert 0.0 <= m[key] <= 1.0, key
+    assert m["null_false_discovery_rate"] == 0.0 and m["silent_miss_rate"] == 0.0
+    assert m["strict_effect_accuracy"] >= 0.5
     assert m["seconds_per_case"] > 0 and m["arm2_doctor_seconds"] > 0
     assert 100 < m["peak_memory_mib"] < 4096  # the issue's budget: 4 GiB
     rows = json.loads((tmp_path / "cases.json").read_text())
     assert [r["families"] for r in rows] == [["none"], ["valve_leak"], ["viscous_friction"]]
+    leak = rows[1]
+    assert leak["findings"][0]["effect"] == "valve_leak"
+    assert leak["findings"][0]["where"] == leak["effects"][0]["where"]
     for r in rows:
         assert (tmp_path / "cases" / r["case"] / "report.json").is_file()
     assert (tmp_path / "doctor_time.png").stat().st_size > 5_000
