@@ -115,7 +115,7 @@ def test_the_supply_estimate_and_its_period_read_the_sawtooth():
     period_true = 60.0 / np.sum(np.diff((p > c.cut_out_pa - 0.5 * c.band_pa).astype(int)) == 1)  # upward mid-crossings
     assert abs(dominant_period_s(est, 0.1) / period_true - 1.0) < 0.03
     assert dominant_period_s(np.zeros(100), 0.1) is None  # flat: no frequency at all
-    assert dominant_period_s(np.ones(8), 0.1, cycles_min=3.0) is None  # too short for three cycles
+    assert dominant_period_s(np.arange(8.0), 0.1, cycles_min=3.0) is None  # 0.8 s: too short for three cycles
 
 
 def test_the_receiver_fit_finds_a_small_fast_cycling_receiver():
