@@ -140,7 +140,7 @@ def fit_receiver(tr: _Target, ho: _Target, nominal_pa: float, rt: float, room_pa
         return float(np.sum(r * r))
 
     bounds = [LOG10_VOLUME_M3, LOG10_DELIVERY_KG_S, LOG10_BAND_PA, (0.0, 1.0), (0.0, 1.0), (0.0, 1.0)]
-    start = sawtooth_start(tr, total_b, dt_b, rt, bounds, cost)
+    start = sawtooth_start(tr, total_b, rt, bounds, cost)
     best = differential_evolution(cost, bounds, seed=seed, maxiter=DE_ITERATIONS, popsize=DE_POPULATION, tol=1e-6,
                                   polish=False, x0=start)
     # the cycle's period is a needle in the global search's space: a simplex from its best
@@ -163,7 +163,7 @@ def fit_receiver(tr: _Target, ho: _Target, nominal_pa: float, rt: float, room_pa
                        _stderr(best.x, run, tr, nominal_pa))
 
 
-def sawtooth_start(tr: _Target, total_b: np.ndarray, dt_b: np.ndarray, rt: float, bounds: list, cost) -> np.ndarray | None:
+def sawtooth_start(tr: _Target, total_b: np.ndarray, rt: float, bounds: list, cost) -> np.ndarray | None:
     """A start for the global search read off the saw-tooth itself (None where there is none):
     the supply pressure error of each block, fitted across the chambers (_Target.supply_estimate),
     gives the band (its 5-95 % range) and the period (its strongest frequency); a receiver that
@@ -174,19 +174,20 @@ def sawtooth_start(tr: _Target, total_b: np.ndarray, dt_b: np.ndarray, rt: float
     period (development seed 273211245: 3.7 L, 5.4 g/s and cost 2951, where the truth's
     0.73 L, 0.49 g/s cost 2536); given this start it keeps whichever costs less."""
     est = tr.supply_estimate()
-    block_s = float(np.median(dt_b))
+    block_s = tr.length * FINE_DT
     band = float(np.subtract(*np.percentile(est, [95, 5])))
     period = dominant_period_s(est, block_s)
     draw = float(np.mean(total_b))
     if not (band > 0 and period and draw > 0):
         return None
+    lo, hi = np.array(bounds).T
     best, best_cost = None, np.inf
     for r in np.linspace(0.1, 0.9, 9):
         volume = draw * rt * (1.0 - r) * period / band
         x = [np.log10(volume), np.log10(draw / r), np.log10(band), 0.0]
         for phase in np.linspace(0.0, 1.0, 11):
             for on in (0.0, 1.0):
-                cand = np.clip(x + [phase, on], [b[0] for b in bounds], [b[1] for b in bounds])
+                cand = np.clip(x + [phase, on], lo, hi)
                 c = cost(cand)
                 if c < best_cost:
                     best, best_cost = cand, c
