@@ -89,16 +89,18 @@ def test_a_joint_spring_outside_the_library_is_unexplained_at_its_joint(tmp_path
 @pytest.mark.slow
 def test_a_joint_spring_no_library_effect_mimics_is_unexplained_at_its_joint(tmp_path):
     """A torsion spring on the elbow (0.0625 N m/rad after concealment, rest at 0.3 rad), where
-    gravity is weak: no library effect takes up any of it (best held-out gain 0.000), so no
-    finding is made at the elbow at all; a smooth torque of the joint's state still takes up
-    93 % of what is left, and the doctor reports it as unexplained at the elbow."""
+    gravity is weak: no finding is made at the elbow; a smooth torque of the joint's state takes
+    up 93-94 % of the held-out torque residual, and the doctor reports it as unexplained at the
+    elbow.  When this test was written no library effect took up any of it (best held-out gain
+    0.000); the doctor of 2026-11-28 finds an angle offset taking up 32 %, a partial projection
+    the yardstick beats (search._keep_mechanical), and the evidence names it."""
     truth = make_spring_case(tmp_path, 11, "elbow", 0.25)
     rep = diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
                    [read_csv(truth["recordings"]["heldout"])])
     assert not [f for f in rep["findings"] if f["where"].get("joint") == "elbow"]
     (u,) = [u for u in rep["unexplained"] if u["where"] == {"joint": "elbow"}]
     assert u["share_of_residual"] > 0.5  # seen: 0.93
-    assert "no library effect pays" in u["evidence"]
+    assert "no library effect pays" in u["evidence"] or "the library's best (angle_sensor_offset)" in u["evidence"]
 
 
 @pytest.mark.slow

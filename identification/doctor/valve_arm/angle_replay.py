@@ -29,6 +29,8 @@ body): the jaw's false viscous friction (0.0185 N m s/rad) raised the jaw angle'
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import mujoco
 import numpy as np
 
@@ -128,14 +130,16 @@ def body_calibration_check(held: Experiment, pmods: PneumaticMods, rfit) -> dict
             "kept": bool(s_cal <= BODY_WORSE_RATIO * s_nom)}
 
 
-def final_mech_mods(run: DoctorRun, without: Finding | None = None) -> MechMods:
+def final_mech_mods(run: DoctorRun, without: Finding | None = None, fit=None) -> MechMods:
     """The rigid body and torques of the final joint fit (what the held-out replays run), with
-    ``without``'s terms left out (its end stop, its friction, its breakaway excess)."""
+    ``without``'s terms left out (its end stop, its friction, its breakaway excess).  ``fit``:
+    another torque-balance fit of the rigid body and the kept terms (in ``run.extra_terms``'
+    order) instead of the final one."""
     robot = run.robot
     owners = [h for h in run.kept_mech for _ in h.params]
     skip = None if without is None else without.scored.hyp
     terms = [(None, j) if h is skip else (attr, j) for (attr, j), h in zip(run.extra_terms, owners)]
-    mm = MechMods.from_fit(run.final_rfit, robot.joint_names, terms)
+    mm = MechMods.from_fit(run.final_rfit if fit is None else fit, robot.joint_names, terms)
     mm.end_stops = {h.joint: (h.fixed["stop_rad"]["value"], h.fixed["side_sign"]["value"])
                     for h in run.kept_mech if h.family == "end_stop" and h is not skip}
     add_breakaway(mm, [f for f in run.findings if f is not without], len(robot.joint_names))
@@ -202,3 +206,21 @@ def angle_worsening(run: DoctorRun) -> list[tuple[Finding, int, float, float, st
         if verdict:
             out.append((f, j, before, after, verdict))
     return sorted(out, key=lambda x: -x[3] / max(x[2], 1e-300))
+
+
+def yardstick_angle(run: DoctorRun, yard) -> tuple[float, float]:
+    """The held-out angle NRMSE of a yardstick's joint in the replay driven by the measured
+    pressures, without and with the yardstick's fitted torque (``yard``: a scored
+    smooth_torque or angle_profile yardstick, fitted beside the kept terms; the rigid body and
+    kept torques of that fit in both replays).  The torque balance found the yardstick paying;
+    this asks whether its torque predicts the joint's motion, as the keep rule asks of a
+    finding (:func:`angle_worsening`): on humanoid38's nulls the equation error of the limit
+    cycle's light joints (the jaw) is paid by a yardstick that is not a torque on the link."""
+    h, k = yard.hyp, len(yard.hyp.params)
+    body = replace(yard.fit, names=list(yard.fit.names[:-k]), values=yard.fit.values[:-k])
+    mm = final_mech_mods(run, fit=body)
+    before = angle_nrmse(run.held, pressure_driven_angles(run.held, run.mods, mm), h.joint)
+    theta = np.array(yard.fit.values[-k:], float)
+    mm.state_torques = {h.joint: lambda q, qd: h.state_torque(theta, q, qd)}
+    after = angle_nrmse(run.held, pressure_driven_angles(run.held, run.mods, mm), h.joint)
+    return before, after

@@ -195,6 +195,7 @@ def _report(run: DoctorRun, located: Located, replays: dict, calibrated: dict, f
             "calibration_flags": flags,
             "flexible_corrections": located.flexible,
             "withdrawn_after_final_fit": run.withdrawn,
+            "unexplained_withdrawn": run.outside_withdrawn,
             "chamber_rms_heldout_pa": dict(zip(chambers, map(float, located.rms_c))),
             "chamber_rms_train_pa": dict(zip(chambers, map(float, located.rms_t))),
             "calibration_condition": cfit.condition,

@@ -44,6 +44,8 @@ class Hypothesis:
     any_tested: bool = False      # the keep rule asks one of them, not each (rules.keeps)
     screened: bool = True         # scored and fitted by the greedy search (False: by its own check, supply_receiver)
     form: str = ""                # the family's form when not its first (tells two forms at one place apart)
+    state_torque: Callable | None = None    # (values (k,), q (W,), qd (W,)) -> torque applied at its joint (W,) [N m]:
+                                            # the yardsticks' fitted torque, for the angle replay (angle_replay)
 
     def keep_mask(self) -> np.ndarray:
         """(k,) bool: the parameters that must each be MIN_T standard errors from 0 (a sensor's
@@ -225,9 +227,12 @@ def angle_profile_yardstick(robot, j: int, exp) -> Hypothesis:
         out = np.zeros((n, J, edges.size + 1))
         out[np.arange(n), j, np.digitize(e.q_s[:, j], edges)] = 1.0
         return out
+
+    def torque(values, q, qd, edges=edges):  # the equation error's +theta is a torque -theta on the link
+        return -np.asarray(values)[np.digitize(q, edges)]
     names = [f"bin_{k}_nm" for k in range(edges.size + 1)]
     return Hypothesis("angle_profile", {"joint": robot.joint_names[j]}, "mechanical",
-                      [(n, 0.0, -np.inf, np.inf, 0.0) for n in names], joint=j, regressor=reg)
+                      [(n, 0.0, -np.inf, np.inf, 0.0) for n in names], joint=j, regressor=reg, state_torque=torque)
 
 
 def _joint_regs(j, fns):
@@ -446,5 +451,10 @@ def smooth_torque_yardstick(robot, j: int) -> Hypothesis:
     fns = [lambda e, td: np.ones(e.q.shape[0]), lambda e, td: e.q[:, j], lambda e, td: e.q[:, j] ** 2,
            lambda e, td: coulomb_shape(e.qd[:, j]), lambda e, td: e.qd[:, j]]
     names = ["constant_nm", "per_rad_nm", "per_rad2_nm", "coulomb_nm", "viscous_nm_s_per_rad"]
+
+    def torque(values, q, qd):  # as friction_torque: the equation error's +theta f is a torque -theta f on the link
+        c0, c1, c2, cc, cv = values
+        return -(c0 + c1 * q + c2 * q ** 2 + cc * coulomb_shape(qd) + cv * qd)
     return Hypothesis("smooth_torque", {"joint": robot.joint_names[j]}, "mechanical",
-                      [(n, 0.0, -np.inf, np.inf, 0.0) for n in names], joint=j, regressor=_joint_regs(j, fns))
+                      [(n, 0.0, -np.inf, np.inf, 0.0) for n in names], joint=j, regressor=_joint_regs(j, fns),
+                      state_torque=torque)

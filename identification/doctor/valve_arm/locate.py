@@ -53,7 +53,8 @@ def locate(run: DoctorRun, flags: list) -> Located:
             # the effect is at one of these places, which the sensors cannot tell apart: the
             # probability of any one of them (the exact place the report's reader acts on)
             f.inclusion /= len(f.alternative_places)
-    unexplained = [outside_torque(run.robot, held, run.td_h, run.rfit, j, f, gain, by) for j, f, gain, by in run.outside]
+    unexplained = [outside_torque(run.robot, held, run.td_h, run.rfit, j, f, gain, by, run.outside_angles.get(j))
+                   for j, f, gain, by in run.outside]
     rms_c = np.sqrt(np.mean(res_h ** 2, axis=(0, 1)))
     rms_t = np.sqrt(np.mean((pred_t - meas_t) ** 2, axis=(0, 1)))
     pred_b, _ = replay(held, win_h, mods_without_all(mods, run.findings))
@@ -145,11 +146,12 @@ def _unexplained_chambers(run: DoctorRun, res_h, res_base_h, rms_c, rms_t, idx_h
 
 
 def outside_torque(robot, held, td_h, rfit, j: int, best: Finding | None, yard_gain: float,
-                   by: str = "state") -> dict:
+                   by: str = "state", angles: tuple | None = None) -> dict:
     """The unexplained entry of joint j, whose torque residual a smooth function of its state
     (``by`` "state") or a torque of its angle alone ("angle": search.outside_without_finding)
     takes up far better than the library's best effect (``best``; None: no library effect paid
-    at all there)."""
+    at all there); ``angles``: the joint's held-out angle NRMSE in the pressure-driven replay
+    without and with that torque, where the search judged it so."""
     r = joint_residual(td_h, rfit, j)
     # in 0.1 s means: the raw equation error is mostly noise from differentiating the angles twice
     block = mech_block(held)
@@ -168,7 +170,10 @@ def outside_torque(robot, held, td_h, rfit, j: int, best: Finding | None, yard_g
                            "held-out torque residual, and no library effect pays there")
                         + (": a torque the library does not hold (a spring, a hose or cable pulling on the link, ...)"
                            if by == "state" else
-                           ": a torque the library does not hold that varies along the angle (a detent, cogging, a cam)")}
+                           ": a torque the library does not hold that varies along the angle (a detent, cogging, a cam)")
+                        + ("" if angles is None else
+                           f"; with it the rigid body driven by the measured pressures replays the held-out angle at "
+                           f"NRMSE {angles[1]:.3g} ({angles[0]:.3g} without)")}
 
 
 def without_finding(mods: PneumaticMods, f: Finding) -> PneumaticMods:

@@ -44,6 +44,8 @@ class MechMods:
     end_stop_nm_per_rad: np.ndarray = None             # stiffness of an end stop (end_stop)
     end_stop_nm_s_per_rad: np.ndarray = None           # its damping while in contact
     end_stops: dict = field(default_factory=dict)      # joint index -> (stop_rad, side +1/-1)
+    state_torques: dict = field(default_factory=dict)  # joint index -> f(q (W,), qd (W,)) -> torque (W,) [N m]:
+                                                       # a yardstick's fitted torque (angle_replay.yardstick_angle)
 
     @classmethod
     def from_fit(cls, fit, joint_names, extra_terms=()) -> "MechMods":
@@ -81,7 +83,8 @@ class MechMods:
     def torque(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray | None:
         """(W, J) friction and end-stop torques at joint angles q and velocities qd (W, J)."""
         stops = self.end_stop_nm_per_rad is not None and self.end_stops
-        if self.coulomb_nm is None and self.stiction_extra_nm is None and self.viscous_nm_s is None and not stops:
+        if (self.coulomb_nm is None and self.stiction_extra_nm is None and self.viscous_nm_s is None and not stops
+                and not self.state_torques):
             return None
         z = np.zeros_like(qd)
         tau = friction_torque(qd, z + (0 if self.coulomb_nm is None else self.coulomb_nm),
@@ -92,6 +95,8 @@ class MechMods:
                 pen = penetration(q[:, j], stop, side)
                 b = 0.0 if self.end_stop_nm_s_per_rad is None else self.end_stop_nm_s_per_rad[j]
                 tau[:, j] -= np.where(pen != 0, self.end_stop_nm_per_rad[j] * pen + b * qd[:, j], 0.0)
+        for j, f in self.state_torques.items():
+            tau[:, j] += f(q[:, j], qd[:, j])
         return tau
 
 

@@ -118,6 +118,10 @@ class DoctorRun:
     outside: list = field(default_factory=list)
     """(joint, the library's best Finding or None, the yardstick's held-out gain): torque the
     library does not hold"""
+    outside_angles: dict = field(default_factory=dict)
+    """joint -> its held-out angle NRMSE without and with the yardstick's torque (angle_replay.yardstick_angle)"""
+    outside_withdrawn: list = field(default_factory=list)
+    """joints whose yardstick paid in the torque balance but whose torque did not replay the angle (search)"""
     outside_chambers: list = field(default_factory=list)
     """unexplained entries the search made at chambers (a wall that yields: compliance.py)"""
     refine: list = field(default_factory=list)

@@ -14,6 +14,7 @@ from identification.base.statistics import robust_ceiling
 from .flex_check import block_samples, partial_projection, suggested_candidates
 from .joint_fit import fit_effect, reaches_fold
 from .hypotheses import angle_profile_yardstick, mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
+from .angle_replay import angle_rule_verdict, yardstick_angle
 from .calibrate import SCALE_BOUND
 from .compliance import compliant_wall
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
@@ -225,7 +226,23 @@ def search_mechanical(run: DoctorRun, say) -> None:
         if not _keep_mechanical(run, finding, scored, base_h, block):
             continue
     run.outside += outside_without_finding(robot, exp, run.td, held, run.td_h, run.findings, run.outside,
-                                           run.kept_mech, run.base_extra)
+                                           run.kept_mech, run.base_extra, judge=lambda yard: _moves_its_angle(run, yard))
+
+
+def _moves_its_angle(run: DoctorRun, yard) -> bool:
+    """The keep rule of the torque balance's findings (angle_replay.angle_rule_verdict) on a
+    yardstick that pays: its fitted torque must not replay its joint's held-out angle worse
+    (and, where the rigid body was held nominal, must replay it better)."""
+    before, after = yardstick_angle(run, yard)
+    verdict = angle_rule_verdict(before, after, body_kept=not run.td.held_nominal)
+    if verdict is None:
+        run.outside_angles[yard.hyp.joint] = (before, after)
+        return True
+    run.outside_withdrawn.append({
+        "where": dict(yard.hyp.where), "yardstick": yard.hyp.family, "share_of_residual": float(yard.heldout_gain),
+        "why": f"its torque makes the joint's held-out angle {verdict} in the rigid body's replay driven by the "
+               f"measured pressures: NRMSE of q.{yard.hyp.where['joint']} {before:.4g} without it, {after:.4g} with it"})
+    return False
 
 
 def standing_out(scored: list) -> list:
@@ -245,13 +262,16 @@ def standing_out(scored: list) -> list:
 
 def _keep_mechanical(run: DoctorRun, finding: Finding, scored: list, base_h, block) -> bool:
     """Keep ``finding`` unless the yardstick shows it a partial projection of a torque the
-    library does not hold (then its joint goes to ``run.outside``); False: not kept."""
+    library does not hold and the yardstick's torque replays the joint's angle (then its joint
+    goes to ``run.outside``); False: not kept."""
     j = finding.scored.hyp.joint
     (yard,), _ = score_mechanical(run.td, run.exp, [smooth_torque_yardstick(run.robot, j)], run.base_extra)
     heldout_torque(yard, run.held, run.td_h, run.kept_mech, run.base_extra, base_h, block)
-    if finding.heldout_gain < YARDSTICK_SHARE * yard.heldout_gain:
+    if finding.heldout_gain < YARDSTICK_SHARE * yard.heldout_gain and _moves_its_angle(run, yard):
         # the library's best is a partial projection of a torque it does not hold: name
-        # nothing at this joint, report the residual as unexplained there
+        # nothing at this joint, report the residual as unexplained there.  (A yardstick whose
+        # torque does not replay the joint's angle is no evidence against the finding, which
+        # the angle replay then judges itself, final_fit.withdraw_angle_worsening.)
         run.outside.append((j, finding, yard.heldout_gain, "state"))
         run.tried.update(s.hyp.label for s in scored if s.hyp.joint == j)
         return False
@@ -459,7 +479,7 @@ def joint_residual(td, rfit, j: int) -> np.ndarray:
     return np.where(td.valid, r, 0.0)
 
 
-def outside_without_finding(robot, exp, td, held, td_h, findings, outside, kept_mech, base_extra) -> list:
+def outside_without_finding(robot, exp, td, held, td_h, findings, outside, kept_mech, base_extra, judge=None) -> list:
     """(joint, None, held-out gain, what it depends on) for each joint where no library effect
     was kept, yet a yardstick still removes >= MECH_KEEP of the held-out torque residual left
     after everything kept, with a parameter >= MIN_T standard errors: a torque the library does
@@ -471,7 +491,9 @@ def outside_without_finding(robot, exp, td, held, td_h, findings, outside, kept_
     at most; none of the 94 cases of the arm2 blind and variant benchmarks was reported
     unexplained this way.  The angle profile's held-out gain on the 24 joints of 12 development
     nulls of the random-form generator: -0.02 or less; on its two cogging joints 0.94 and 0.97.
-    With 12 joints or more a gain must also stand out of the joints' (statistics.robust_ceiling)."""
+    With 12 joints or more a gain must also stand out of the joints' (statistics.robust_ceiling).
+    ``judge(yard)``, if given, must also accept the paying yardstick (search: its torque replays
+    its joint's held-out angle, :func:`_moves_its_angle`); a joint it rejects tries the next yardstick."""
     done = {f.scored.hyp.joint for f in findings if f.scored.hyp.kind == "mechanical"} | {j for j, *_ in outside}
     todo = [j for j in range(len(robot.joint_names)) if j not in done]
     if not todo:
@@ -493,7 +515,7 @@ def outside_without_finding(robot, exp, td, held, td_h, findings, outside, kept_
             # an angle bin the fit's valid samples leave empty has no error bar: no evidence
             ok = np.isfinite(stderr) & (stderr > 0)
             t = values[ok] / stderr[ok]
-            if yard.heldout_gain >= floor and t.size and t.max() >= MIN_T:
+            if yard.heldout_gain >= floor and t.size and t.max() >= MIN_T and (judge is None or judge(yard)):
                 out.append((j, None, yard.heldout_gain, by))
         todo = [j for j in todo if j not in {o[0] for o in out}]
         if not todo:
