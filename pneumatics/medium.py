@@ -77,50 +77,57 @@ def _dpsi_dr(r, k):
     return dg / (2.0 * np.sqrt(np.maximum(g, 1e-300)))
 
 
-def unit_flow(p_up, p_down, gas: GasCfg):
+def unit_flow(p_up, p_down, gas: GasCfg, derivatives: bool = True):
     """Mass flow per unit effective area [kg/(s m^2)] from ``p_up`` to ``p_down`` >= 0 case.
 
     Arrays broadcast; requires ``p_up >= p_down > 0`` (use :func:`orifice_flow` for signs).
-    Returns ``(flow, d_flow/d_p_up, d_flow/d_p_down)``.
+    Returns ``(flow, d_flow/d_p_up, d_flow/d_p_down)``; the derivatives are None when not
+    asked for (``derivatives`` False: a third of the work on large arrays).
     """
     p_up = np.asarray(p_up, float)
     p_down = np.asarray(p_down, float)
     k, rc, rl = gas.heat_capacity_ratio, gas.critical_ratio, gas.laminar_ratio
     with np.errstate(invalid="ignore", divide="ignore"):  # every branch is evaluated; one is kept
-        return _unit_flow_branches(p_up, p_down, p_down / p_up, gas, k, rc, rl)
+        return _unit_flow_branches(p_up, p_down, p_down / p_up, gas, k, rc, rl, derivatives)
 
 
-def _unit_flow_branches(p_up, p_down, r, gas, k, rc, rl):
+def _unit_flow_branches(p_up, p_down, r, gas, k, rc, rl, derivatives=True):
     # choked
     f_ch = gas.c_choke * p_up
     # subsonic
-    psi, dpsi = flow_function(r, k), _dpsi_dr(r, k)
+    psi = flow_function(r, k)
     f_sub = gas.c_sub * p_up * psi
-    dsub_dup = gas.c_sub * (psi - r * dpsi)
-    dsub_ddown = gas.c_sub * dpsi
     # linear branch, matched at r = laminar_ratio: f = c_sub psi(rl) (p_up - p_down) / (1 - rl)
     slope = gas.c_sub * flow_function(rl, k) / (1.0 - rl)
     f_lin = slope * (p_up - p_down)
     flow = np.where(r <= rc, f_ch, np.where(r <= rl, f_sub, f_lin))
+    if not derivatives:
+        return flow, None, None
+    dpsi = _dpsi_dr(r, k)
+    dsub_dup = gas.c_sub * (psi - r * dpsi)
+    dsub_ddown = gas.c_sub * dpsi
     d_up = np.where(r <= rc, gas.c_choke, np.where(r <= rl, dsub_dup, slope))
     d_down = np.where(r <= rc, 0.0, np.where(r <= rl, dsub_ddown, -slope))
     return flow, d_up, d_down
 
 
-def orifice_flow(area_m2, p_from, p_to, gas: GasCfg):
+def orifice_flow(area_m2, p_from, p_to, gas: GasCfg, derivatives: bool = True):
     """Signed mass flow [kg/s] through an orifice of effective area ``area_m2`` (Cd*A).
 
     Positive from ``p_from`` to ``p_to``; reverses when ``p_to > p_from``.
-    Returns ``(mdot, d mdot / d p_from, d mdot / d p_to)``; arrays broadcast.
+    Returns ``(mdot, d mdot / d p_from, d mdot / d p_to)``; arrays broadcast; the derivatives
+    are None when ``derivatives`` is False.
     """
     p_from, p_to = np.broadcast_arrays(np.asarray(p_from, float), np.asarray(p_to, float))
     forward = p_from >= p_to
     hi = np.where(forward, p_from, p_to)
     lo = np.where(forward, p_to, p_from)
-    f, d_hi, d_lo = unit_flow(hi, lo, gas)
+    f, d_hi, d_lo = unit_flow(hi, lo, gas, derivatives)
     s = np.where(forward, 1.0, -1.0)
     area_m2 = np.asarray(area_m2, float)
     mdot = s * area_m2 * f
+    if not derivatives:
+        return mdot, None, None
     d_from = area_m2 * np.where(forward, d_hi, -d_lo)
     d_to = area_m2 * np.where(forward, d_lo, -d_hi)
     return mdot, d_from, d_to

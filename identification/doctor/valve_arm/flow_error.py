@@ -96,18 +96,19 @@ class _Valves:
         self._droop = float(mods.supply_droop_pa_per_kg_s)
         self._droop_tau = float(mods.supply_droop_tau_s)
 
-    def flows(self, u):
-        """(supply flow, exhaust flow), each (F, C) [kg/s], and d supply flow / d p_supply."""
+    def flows(self, u, derivative: bool = True):
+        """(supply flow, exhaust flow), each (F, C) [kg/s], and d supply flow / d p_supply
+        (None without ``derivative``)."""
         a_s, a_e = model_areas(self.tab, self.mods, u)
         ps = self.ps
         if self._droop > 0:  # the supply pressure the model's own total supply flow leaves
-            m0 = orifice_flow(a_s, ps, self.p, self.gas)[0]
+            m0 = orifice_flow(a_s, ps, self.p, self.gas, derivatives=False)[0]
             total = np.maximum(m0, 0).sum(axis=1, keepdims=True)
             if self._droop_tau > 0:  # behind a receiver (effects.supply_droop, reservoir form)
                 total = lowpass(total, self._droop_tau)
             ps = ps - self._droop * total
-        m_s, d_ps, _ = orifice_flow(a_s, ps, self.p, self.gas)
-        m_e = orifice_flow(a_e, self.p, self.tab.room_pa, self.gas)[0]
+        m_s, d_ps, _ = orifice_flow(a_s, ps, self.p, self.gas, derivatives=derivative)
+        m_e = orifice_flow(a_e, self.p, self.tab.room_pa, self.gas, derivatives=False)[0]
         return m_s, m_e, d_ps
 
 
@@ -150,9 +151,6 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
         m_model = m_model.copy()
         m_model[:, 0::2] -= m_ab
         m_model[:, 1::2] += m_ab
-    feats = _chamber_features(exp, valves, u_eff, p_mid, v_mid, dp, dv, m_s, m_e, S)
-    sup = _supply_features(m_s, d_ps)
-    total = np.maximum(m_s, 0).sum(axis=1)
     # block means over ``block`` samples = block * S fine steps, dropping those across a join
     L = block * S
     nb = (F - 1) // L
@@ -165,49 +163,53 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
     def bm(x):
         y = x[: nb * L].reshape(nb, L, *x.shape[1:]).mean(axis=1)
         return y[idx]
-    return FlowBlocks(bm(implied - m_model), {g: bm(v) for g, v in feats.items()}, bm(sup),
+    feats = _chamber_features(exp, valves, u_eff, p_mid, v_mid, dp, dv, m_s, m_e, S, bm)
+    total = np.maximum(m_s, 0).sum(axis=1)
+    return FlowBlocks(bm(implied - m_model), feats, _supply_features(m_s, d_ps, bm),
                       (starts[idx] + L // 2) // S, S, bm(d_ps), bm(total), starts[idx], L)
 
 
-def _chamber_features(exp, valves, u_eff, p, v, dp, dv, m_s, m_e, S) -> dict:
-    """group -> (F-1, C, k) inputs of each chamber's correction on the 1 ms grid."""
+def _chamber_features(exp, valves, u_eff, p, v, dp, dv, m_s, m_e, S, bm) -> dict:
+    """group -> (B, C, k) block means (``bm``) of each chamber's correction inputs on the 1 ms
+    grid, each input reduced as soon as it is made: on a 60 s recording of humanoid38 one input
+    is a 36 MB array, and all of them side by side took 2 GB."""
     tab, gas = exp.robot.tables, exp.robot.tables.gas
     room, ps = tab.room_pa, tab.supply_pa
     u = np.repeat(exp.u, S, axis=0)[: p.shape[0]]
     du = u - tab.valve[:, 0]
-    f_sup = orifice_flow(1.0, ps, p, gas)[0]
-    f_out = orifice_flow(1.0, p, room, gas)[0]
+    f_sup = orifice_flow(1.0, ps, p, gas, derivatives=False)[0]
+    f_out = orifice_flow(1.0, p, room, gas, derivatives=False)[0]
     near = []
     for w in NULL_WIDTHS_V:
         bump = np.exp(-(du / w) ** 2)
-        near += [bump * f_sup, bump * f_out]
+        near += [bm(bump * f_sup), bm(bump * f_out)]
     other = p.reshape(p.shape[0], -1, 2)[:, :, ::-1].reshape(p.shape)       # chamber b of a, a of b
-    cross = orifice_flow(1.0, p, other, gas)[0]
+    cross = orifice_flow(1.0, p, other, gas, derivatives=False)[0]
     # the motion's compression p dV/dt and its histories; not V dp/dt, which carries the
     # measured pressure's noise the target carries too (errors in variables)
     pdv = p * dv
-    volume = [pdv] + [lowpass(pdv, t) - pdv for t in VOLUME_TAUS_S]
+    volume = [bm(pdv)] + [bm(lowpass(pdv, t) - pdv) for t in VOLUME_TAUS_S]
     m0 = m_s - m_e
     history = []
     for t in HISTORY_TAUS_S:
-        a, b, _ = valves.flows(lowpass(u_eff, t))
-        history.append(a - b - m0)
+        a, b, _ = valves.flows(lowpass(u_eff, t), derivative=False)
+        history.append(bm(a - b - m0))
     for d in HISTORY_DELAYS_S:
-        a, b, _ = valves.flows(delayed(u_eff, d))
-        history.append(a - b - m0)
+        a, b, _ = valves.flows(delayed(u_eff, d), derivative=False)
+        history.append(bm(a - b - m0))
     rel = (p - room) / (ps - room)
     return {"command near null": np.stack(near, axis=2),
-            "pressure level": np.stack([p - room, (p ** 2 - room ** 2) / ps, f_out], axis=2),
-            "p_a - p_b": np.stack([p - other, cross], axis=2),
+            "pressure level": np.stack([bm(p - room), bm((p ** 2 - room ** 2) / ps), bm(f_out)], axis=2),
+            "p_a - p_b": np.stack([bm(p - other), bm(cross)], axis=2),
             "volume": np.stack(volume, axis=2),
             "command history": np.stack(history, axis=2),
-            "valve opening": np.stack([m_s, m_e, m_s * rel, m_e * rel], axis=2)}
+            "valve opening": np.stack([bm(m_s), bm(m_e), bm(m_s * rel), bm(m_e * rel)], axis=2)}
 
 
-def _supply_features(m_s, d_ps) -> np.ndarray:
-    """(F-1, C, k): a supply pressure error common to all chambers, modelled as a constant, the
-    total supply flow and its low-passed histories, acting on each chamber through its own
-    d mdot_supply / d p_supply (a linearised orifice, paper 002 eq. 6)."""
+def _supply_features(m_s, d_ps, bm) -> np.ndarray:
+    """(B, C, k) block means (``bm``): a supply pressure error common to all chambers, modelled
+    as a constant, the total supply flow and its low-passed histories, acting on each chamber
+    through its own d mdot_supply / d p_supply (a linearised orifice, paper 002 eq. 6)."""
     total = np.maximum(m_s, 0).sum(axis=1, keepdims=True)                  # (F-1, 1)
     drivers = [total] + [lowpass(total, t) for t in SUPPLY_TAUS_S]
-    return np.stack([d_ps * z for z in drivers], axis=2)
+    return np.stack([bm(d_ps * z) for z in drivers], axis=2)
