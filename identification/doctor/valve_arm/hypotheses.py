@@ -235,16 +235,6 @@ def angle_profile_yardstick(robot, j: int, exp) -> Hypothesis:
                       [(n, 0.0, -np.inf, np.inf, 0.0) for n in names], joint=j, regressor=reg, state_torque=torque)
 
 
-def _joint_regs(j, fns):
-    def reg(exp, td):
-        n, J = exp.qd.shape
-        out = np.zeros((n, J, len(fns)))
-        for k, fn in enumerate(fns):
-            out[:, j, k] = fn(exp, td)
-        return out
-    return reg
-
-
 def _two_fold_rss(td, reg, folds: list):
     """Residual sum of squares of the torque balance with extra regressors ``reg``, each half of
     the training samples predicted by a fit to the other half: a stop placed where only a few
@@ -448,13 +438,20 @@ def smooth_torque_yardstick(robot, j: int) -> Hypothesis:
     force error, friction, an angle offset's gravity torque), so a true one removes about as
     much as the yardstick; a torque the library does not hold (a spring, a hose pulling on the
     link) is taken up by the yardstick and only projected, in part, onto a library effect."""
-    fns = [lambda e, td: np.ones(e.q.shape[0]), lambda e, td: e.q[:, j], lambda e, td: e.q[:, j] ** 2,
-           lambda e, td: coulomb_shape(e.qd[:, j]), lambda e, td: e.qd[:, j]]
     names = ["constant_nm", "per_rad_nm", "per_rad2_nm", "coulomb_nm", "viscous_nm_s_per_rad"]
 
+    def reg(e, td):
+        out = np.zeros(e.qd.shape + (len(names),))
+        out[:, j] = _smooth_basis(e.q[:, j], e.qd[:, j])
+        return out
+
     def torque(values, q, qd):  # as friction_torque: the equation error's +theta f is a torque -theta f on the link
-        c0, c1, c2, cc, cv = values
-        return -(c0 + c1 * q + c2 * q ** 2 + cc * coulomb_shape(qd) + cv * qd)
+        return -_smooth_basis(q, qd) @ np.asarray(values, float)
     return Hypothesis("smooth_torque", {"joint": robot.joint_names[j]}, "mechanical",
-                      [(n, 0.0, -np.inf, np.inf, 0.0) for n in names], joint=j, regressor=_joint_regs(j, fns),
-                      state_torque=torque)
+                      [(n, 0.0, -np.inf, np.inf, 0.0) for n in names], joint=j, regressor=reg, state_torque=torque)
+
+
+def _smooth_basis(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """(n, 5) the smooth yardstick's functions of a joint's angle q and velocity qd (n,): its
+    regressor in the torque balance and its torque in the angle replay are both made of these."""
+    return np.stack([np.ones_like(q), q, q ** 2, coulomb_shape(qd), qd], axis=1)
