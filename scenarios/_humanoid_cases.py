@@ -30,7 +30,7 @@ import functools
 import numpy as np
 
 from pneumatics.effects.family import place_names
-from pneumatics.errors import RecordingError
+from pneumatics.errors import RecordingError, UnknownNameError
 from pneumatics.robot import load_robot
 
 from ._cases import BENCHMARK_FAMILIES, effects_of, perturbed_valves, truth_of
@@ -53,10 +53,35 @@ def humanoid_families() -> list[str]:
     return [f for f in BENCHMARK_FAMILIES if get_family(f).places(robot)]
 
 
-def perturbed_humanoid(rng: np.random.Generator, fraction: float = PARAM_ERROR):
-    """humanoid38 with every valve area, dead volume and body mass (with its inertia) off by up
-    to +-fraction (scenarios/_cases.py's arm2 errors, on every actuator and body)."""
+#: parts of humanoid38 (the other joints locked at the home pose, pneumatics.robot_subset): the
+#: doctor-time plot's points between arm2's 4 chambers and the whole robot's 76
+_LEFT_ARM = ("left_clavicle_elevation", "left_shoulder_pitch", "left_shoulder_roll", "left_shoulder_yaw",
+             "left_elbow", "left_forearm_roll", "left_wrist_pitch", "left_wrist_yaw")
+SUBSETS = {
+    "left_arm": _LEFT_ARM,
+    "arms": _LEFT_ARM + tuple(n.replace("left_", "right_") for n in _LEFT_ARM),
+    "upper_body": ("waist_yaw", "waist_pitch", "waist_roll", "neck_yaw", "neck_pitch", "neck_roll", "head_pitch",
+                   "jaw") + _LEFT_ARM + tuple(n.replace("left_", "right_") for n in _LEFT_ARM),
+}
+
+
+def nominal_humanoid(subset: str | None = None):
+    """humanoid38, or the part of it named ``subset`` (a key of SUBSETS)."""
     robot = load_robot(MODEL)
+    if subset is None:
+        return robot
+    from pneumatics.robot_subset import restricted_robot
+
+    if subset not in SUBSETS:
+        raise UnknownNameError("humanoid38 subset", subset, list(SUBSETS))
+    return restricted_robot(robot, SUBSETS[subset], subset)
+
+
+def perturbed_humanoid(rng: np.random.Generator, fraction: float = PARAM_ERROR, subset: str | None = None):
+    """humanoid38 (or its part ``subset``) with every valve area, dead volume and body mass (with
+    its inertia) off by up to +-fraction (scenarios/_cases.py's arm2 errors, on every actuator
+    and body)."""
+    robot = nominal_humanoid(subset)
     f = lambda: float(1 + rng.uniform(-fraction, fraction))  # noqa: E731
     robot = perturbed_valves(robot, f)
     factors = {}
@@ -86,17 +111,22 @@ def draw_on_humanoid(family: str, rng: np.random.Generator, robot):
     return fam, place, fam.draw(rng)
 
 
-@functools.lru_cache(maxsize=1)
-def controller():
-    """(PIDF cfg, valve linearizer, references) of the nominal humanoid38, once per process."""
-    from controllers.reference import standard_references
+@functools.lru_cache(maxsize=2)
+def controller(subset: str | None = None):
+    """(PIDF cfg, valve linearizer, references) of the nominal humanoid38 (or its part
+    ``subset``: the references of its joints), once per process."""
+    from controllers.reference import JointReference, standard_references
 
     from ._humanoid import calibrated_linearizer, pidf_gains, range_test
 
-    robot = load_robot(MODEL)
+    robot = nominal_humanoid(subset)
     lin, _, _ = calibrated_linearizer(robot, True)
     cfg = pidf_gains(range_test(robot, lin, one_at_a_time=False))
-    return cfg, lin, standard_references(MODEL, "normal")
+    refs = standard_references(MODEL, "normal")
+    if subset is not None:
+        cols = [refs[0].joint_names.index(n) for n in robot.joint_names]
+        refs = [JointReference(r.time, r.q[:, cols], list(robot.joint_names), r.lam) for r in refs]
+    return cfg, lin, refs
 
 
 def refusal(robot, *recordings) -> str | None:
@@ -116,17 +146,17 @@ def refusal(robot, *recordings) -> str | None:
     return None
 
 
-def make_case(seed: int, families: list[str], seconds: float, heldout_seconds: float):
-    """(main recording, held-out recording, truth dict) of one case; the held-out recording
-    tracks a different reference with a different noise seed."""
+def make_case(seed: int, families: list[str], seconds: float, heldout_seconds: float, subset: str | None = None):
+    """(main recording, held-out recording, truth dict) of one case of humanoid38 (or of its part
+    ``subset``); the held-out recording tracks a different reference with a different noise seed."""
     from .humanoid38_tracking import track
 
     rng = np.random.default_rng(seed)
-    nominal = load_robot(MODEL)
+    nominal = nominal_humanoid(subset)
     drawn = [draw_on_humanoid(f, rng, nominal) for f in families]
     scale = float(rng.uniform(*CONCEAL_SCALE)) if families else 1.0
-    robot, factors = perturbed_humanoid(rng)
-    cfg, lin, refs = controller()
+    robot, factors = perturbed_humanoid(rng, subset=subset)
+    cfg, lin, refs = controller(subset)
     k = int(rng.integers(0, len(refs)))
     for halvings in range(MAX_HALVINGS + 1):
         effects = effects_of(drawn, scale)
@@ -136,10 +166,10 @@ def make_case(seed: int, families: list[str], seconds: float, heldout_seconds: f
         if refused is None:
             break
         if not families or halvings == MAX_HALVINGS:
-            raise RecordingError(f"humanoid38 case {seed}: the doctor would refuse its recording "
+            raise RecordingError(f"{nominal.name} case {seed}: the doctor would refuse its recording "
                                  f"({refused}){' with the effects halved ' + str(halvings) + ' times' if families else ''}")
         scale *= 0.5
-    truth = {"seed": seed, "families": list(families) or ["none"], "effects": [truth_of(d, scale) for d in drawn],
+    truth = {"seed": seed, "model": nominal.name, "families": list(families) or ["none"], "effects": [truth_of(d, scale) for d in drawn],
              "scale": scale, "parameter_factors": factors, "perturbation_fraction": PARAM_ERROR,
              "references": [k, (k + 1) % len(refs)]}
     return main, held, truth

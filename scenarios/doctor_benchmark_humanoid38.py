@@ -10,7 +10,8 @@ pairs, 60 s + 30 s recordings, seeds from ``PNEUMASIM_HUMANOID_SEED``: unset, th
 base 7000; a number, that base; "fresh", a base drawn from the operating system's entropy when
 the run starts (kept in seed.json for a resumed run; ``seed_source`` in metrics.json).
 ``--fast`` (CI): a null case, a chamber effect
-(valve_leak) and a joint effect (viscous_friction), 20 s + 10 s, fixed seeds.
+(valve_leak) and a joint effect (viscous_friction), 20 s + 10 s, fixed seeds, and the left
+arm's timing case.
 
 Metrics: the strict ones of scenarios/_generalization_metrics.py (``strict_effect_accuracy``,
 ``strict_location_accuracy``: the first finding's place is exactly the hidden chamber or
@@ -18,9 +19,10 @@ joint, ``null_false_discovery_rate``, ``silent_miss_rate``, per family), the len
 the development sets, ``seconds_per_case`` (the doctor alone), ``generate_seconds_per_case``
 and ``peak_memory_mib`` (the largest ru_maxrss of the sweep workers after their cases: the
 process's peak, recordings and doctor together).  doctor_time.png: the doctor's seconds
-against the number of chambers, arm2 (4, a null case of the same length) and humanoid38 (76,
-every case); no subset of humanoid38 (the doctor takes a whole robot model, and there is no
-restricted humanoid38 model).
+against the number of chambers: arm2 (4, a null case of the same lengths), parts of
+humanoid38 with its other joints locked at the home pose (pneumatics.robot_subset: the left
+arm 16, both arms 32, the upper body 48 chambers; a null case each, fixed seeds, its own
+calibrated PIDF) and humanoid38 (76, every case).
 
 Cases run through :func:`workflow.sweep.sweep` (``PNEUMASIM_WORKERS=N``); finished cases are
 kept in ``<out>/sweep/cases/`` (a rerun resumes).  Outputs: metrics.json, cases.json,
@@ -48,6 +50,8 @@ SEED_ENV = "PNEUMASIM_HUMANOID_SEED"
 PAIRS = (["valve_leak", "coulomb_friction"], ["pressure_sensor_offset", "valve_hysteresis"],
          ["viscous_friction", "piston_leak"])
 ARM2_CHAMBERS, HUMANOID_CHAMBERS = 4, 76
+#: the parts of humanoid38 (_humanoid_cases.SUBSETS) timed on a null case for the plot; --fast: the first
+TIMED_SUBSETS = ("left_arm", "arms", "upper_body")
 
 
 DEVELOPMENT_SEED_BASE = 7000
@@ -125,15 +129,38 @@ def arm2_timing_case(case: dict) -> dict:
     return {"chambers": ARM2_CHAMBERS, "seconds": seconds, "peak_memory_mib": _peak_mib()}
 
 
+def subset_timing_case(case: dict) -> dict:
+    """The doctor's seconds on a null case of a part of humanoid38 (``case["subset"]``, a key of
+    _humanoid_cases.SUBSETS: the other joints locked), of the same lengths: the plot's points
+    between arm2 and the whole robot."""
+    from identification.doctor.valve_arm.diagnose import diagnose
+
+    from ._humanoid_cases import make_case, nominal_humanoid
+
+    main_rec, held, _ = make_case(case["seed"], [], case["seconds"], case["heldout_seconds"], subset=case["subset"])
+    robot = nominal_humanoid(case["subset"])
+    t0 = time.perf_counter()
+    report = diagnose(robot, [main_rec], [held])
+    seconds = time.perf_counter() - t0
+    return {"subset": case["subset"], "chambers": robot.tables.n_chambers, "seconds": seconds,
+            "peak_memory_mib": _peak_mib(), "findings": [_finding(f) for f in report["findings"]],
+            "unexplained": report["unexplained"]}
+
+
 def sweep_case(case: dict) -> dict:
-    """The sweep's function: a humanoid38 case or the arm2 timing case."""
-    return arm2_timing_case(case) if case.get("arm2_timing") else humanoid_case(case)
+    """The sweep's function: a humanoid38 case, a subset's or the arm2 timing case."""
+    if case.get("arm2_timing"):
+        return arm2_timing_case(case)
+    return subset_timing_case(case) if case.get("subset") else humanoid_case(case)
 
 
-def metrics(rows: list[dict], families: list[str], arm2: dict) -> dict:
+def metrics(rows: list[dict], families: list[str], arm2: dict, parts: list[dict]) -> dict:
     m = generalization_metrics(rows, families)
-    m["peak_memory_mib"] = max([r["peak_memory_mib"] for r in rows] + [arm2["peak_memory_mib"]])
+    m["peak_memory_mib"] = max([r["peak_memory_mib"] for r in rows + parts] + [arm2["peak_memory_mib"]])
     m["arm2_doctor_seconds"] = arm2["seconds"]
+    for p in parts:  # flat keys, as the per-family metrics
+        m[f"subset_doctor_seconds.{p['subset']}"] = p["seconds"]
+        m[f"subset_chambers.{p['subset']}"] = p["chambers"]
     m["seeds"] = ",".join(str(r["seed"]) for r in rows)
     return m
 
@@ -149,18 +176,31 @@ def write_cases(ctx, rows: list[dict]) -> None:
                                                for r in rows])
 
 
-def plot_doctor_time(ctx, rows: list[dict], arm2: dict, seconds: float, heldout_s: float) -> None:
-    """doctor_time.png: the doctor's seconds against the number of chambers (log-log)."""
+def plot_doctor_time(ctx, rows: list[dict], arm2: dict, parts: list[dict], seconds: float, heldout_s: float) -> None:
+    """doctor_time.png: the doctor's seconds against the number of chambers (log-log): arm2's
+    null case, the null cases of parts of humanoid38, and every humanoid38 case."""
     from .common import plt
 
     fig, ax = plt.subplots(figsize=(6, 4.5))
     hum = [r["seconds"] for r in rows]
     ax.scatter([HUMANOID_CHAMBERS] * len(hum), hum, label=f"humanoid38 ({len(hum)} cases)", color="C0")
     ax.scatter([ARM2_CHAMBERS], [arm2["seconds"]], label="arm2 (a null case)", color="C1")
-    ax.plot([ARM2_CHAMBERS, HUMANOID_CHAMBERS], [arm2["seconds"], float(np.median(hum))], "k:", lw=1)
+    for p in parts:
+        ax.scatter([p["chambers"]], [p["seconds"]], color="C2", marker="s")
+        ax.annotate(p["subset"], (p["chambers"], p["seconds"]), textcoords="offset points", xytext=(4, -10), fontsize=7)
+    if parts:
+        ax.scatter([], [], color="C2", marker="s", label="parts of humanoid38, the rest locked (a null case each)")
+    points = sorted([(ARM2_CHAMBERS, arm2["seconds"])] + [(p["chambers"], p["seconds"]) for p in parts]
+                    + [(HUMANOID_CHAMBERS, float(np.median(hum)))])
+    ax.plot(*zip(*points), "k:", lw=1)
+    ticks = sorted({c for c, _ in points})
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xticks([ARM2_CHAMBERS, HUMANOID_CHAMBERS], [str(ARM2_CHAMBERS), str(HUMANOID_CHAMBERS)])
+    ax.set_xticks(ticks, [str(c) for c in ticks])
+    times = [t for _, t in points] + hum
+    yticks = [t for t in (1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000)
+              if min(times) / 2 <= t <= max(times) * 2]
+    ax.set_yticks(yticks, [f"{t:g}" for t in yticks])
     ax.minorticks_off()
     ax.set_xlabel("chambers")
     ax.set_ylabel("doctor time [s]")
@@ -175,17 +215,19 @@ def run(ctx):
     remember_seed_base(ctx.out, base, source)
     cases, seconds, held_s = plan(ctx.fast, base)
     specs = [{"seed": s, "families": f, "seconds": seconds, "heldout_seconds": held_s} for s, f in cases]
+    parts = TIMED_SUBSETS[:1] if ctx.fast else TIMED_SUBSETS
+    specs += [{"subset": p, "seed": 2 + k, "seconds": seconds, "heldout_seconds": held_s} for k, p in enumerate(parts)]
     specs.append({"arm2_timing": True, "seed": 1, "seconds": seconds, "heldout_seconds": held_s})
     results = sweep(sweep_case, specs, out=ctx.out / "sweep", **options_from_env())
     raise_on_failure(results, "doctor_benchmark_humanoid38")
-    *rows, arm2 = [r.result for r in results]
-    rows = list(rows)
+    done = [r.result for r in results]
+    rows, parts, arm2 = done[:len(cases)], done[len(cases):-1], done[-1]
     if source != "fresh":  # a fresh run is reported as it comes, not case by case
         print_cases(rows)
     write_cases(ctx, rows)
-    plot_doctor_time(ctx, rows, arm2, seconds, held_s)
+    plot_doctor_time(ctx, rows, arm2, parts, seconds, held_s)
     families = sorted({f for _, fams in cases for f in fams})
-    return {**metrics(rows, families, arm2), "seed_base": base, "seed_source": source}
+    return {**metrics(rows, families, arm2, parts), "seed_base": base, "seed_source": source}
 
 
 if __name__ == "__main__":

@@ -102,7 +102,7 @@ def test_a_humanoid38_null_that_limit_cycles_gets_no_finding():
 
     exact = cases.perturbed_humanoid
     try:
-        cases.perturbed_humanoid = lambda rng, fraction=None: exact(rng, 0.0)
+        cases.perturbed_humanoid = lambda rng, fraction=None, subset=None: exact(rng, 0.0, subset)
         main, held, _ = cases.make_case(7000, [], 20.0, 10.0)
     finally:
         cases.perturbed_humanoid = exact

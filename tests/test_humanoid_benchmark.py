@@ -58,9 +58,9 @@ def test_a_backlash_is_drawn_only_where_a_joint_transmission_actuator_can_carry_
 @pytest.mark.heavy
 def test_fast_humanoid38_benchmark(tmp_path, monkeypatch):
     """--fast (issue 17: in CI): a null case, a valve leak at one of the 76 chambers and a
-    viscous friction at one of the 38 joints, 20 s + 10 s each, and the arm2 timing case, in
-    this process (about 9 minutes on one core).  The null stays clean, nothing hidden goes
-    unreported, and the leaking chamber is named first."""
+    viscous friction at one of the 38 joints, 20 s + 10 s each, and the timing cases of the
+    left arm alone (16 chambers) and of arm2, in this process (about 9 minutes on one core).
+    The null stays clean, nothing hidden goes unreported, and the leaking chamber is named first."""
     from scenarios.common import run_scenario
 
     monkeypatch.setenv("PNEUMASIM_BACKEND", "inline")
@@ -69,6 +69,7 @@ def test_fast_humanoid38_benchmark(tmp_path, monkeypatch):
     assert m["null_false_discovery_rate"] == 0.0 and m["silent_miss_rate"] == 0.0
     assert m["strict_effect_accuracy"] >= 0.5
     assert m["seconds_per_case"] > 0 and m["arm2_doctor_seconds"] > 0
+    assert m["subset_chambers.left_arm"] == 16 and m["subset_doctor_seconds.left_arm"] > 0
     assert 100 < m["peak_memory_mib"] < 4096  # the issue's budget: 4 GiB
     rows = json.loads((tmp_path / "cases.json").read_text())
     assert [r["families"] for r in rows] == [["none"], ["valve_leak"], ["viscous_friction"]]
@@ -80,7 +81,7 @@ def test_fast_humanoid38_benchmark(tmp_path, monkeypatch):
     assert (tmp_path / "doctor_time.png").stat().st_size > 5_000
 
 
-def test_metrics_from_hand_made_rows_are_strict_and_keep_the_arm2_time():
+def test_metrics_from_hand_made_rows_are_strict_and_keep_the_timing_cases():
     """A right chamber case, a joint case named at the wrong joint, a null case with a finding."""
     from scenarios.doctor_benchmark_humanoid38 import metrics
 
@@ -96,11 +97,13 @@ def test_metrics_from_hand_made_rows_are_strict_and_keep_the_arm2_time():
     rows = [row(1, [leak], [{"effect": "valve_leak", "where": leak["where"]}]),
             row(2, [visc], [{"effect": "viscous_friction", "where": {"joint": "left_knee"}}]),
             row(3, [], [{"effect": "supply_droop", "where": {"supply": "all"}}])]
-    m = metrics(rows, ["valve_leak", "viscous_friction"], {"seconds": 8.0, "peak_memory_mib": 1200.0})
+    arm = {"subset": "left_arm", "chambers": 16, "seconds": 30.0, "peak_memory_mib": 1500.0}
+    m = metrics(rows, ["valve_leak", "viscous_friction"], {"seconds": 8.0, "peak_memory_mib": 1200.0}, [arm])
     assert m["strict_effect_accuracy"] == 1.0 and m["strict_location_accuracy"] == 0.5
     assert m["null_false_discovery_rate"] == 1.0 and m["silent_miss_rate"] == 0.0
     assert m["strict_location_accuracy.viscous_friction"] == 0.0
-    assert m["peak_memory_mib"] == 1200.0 and m["arm2_doctor_seconds"] == 8.0 and m["seeds"] == "1,2,3"
+    assert m["peak_memory_mib"] == 1500.0 and m["arm2_doctor_seconds"] == 8.0 and m["seeds"] == "1,2,3"
+    assert m["subset_doctor_seconds.left_arm"] == 30.0 and m["subset_chambers.left_arm"] == 16
 
 
 def test_a_fresh_humanoid_run_draws_its_base_and_a_resumed_one_keeps_it(tmp_path, monkeypatch):
@@ -141,7 +144,7 @@ def test_a_recording_the_doctor_would_refuse_is_made_again_with_the_effect_halve
             cols["q.right_ankle_roll"] = np.linspace(-0.7, 0.3, t.size)
         return Recording(t, cols, {}, "fake")
 
-    monkeypatch.setattr(hc, "controller", lambda: (None, None, [None, None]))
+    monkeypatch.setattr(hc, "controller", lambda subset=None: (None, None, [None, None]))
     monkeypatch.setattr(tracking, "track", fake_track)
     _, _, truth = hc.make_case(11, ["viscous_friction"], 1.0, 1.0)
     assert len(calls) == 6
