@@ -65,6 +65,10 @@ def test_effect_fits_at_one_joint_equal_the_whole_fit():
         assert np.allclose(whole.values, both.values, rtol=0, atol=1e-9)
         assert abs(whole.rss - both.rss) <= 1e-9 * whole.rss
         assert abs(whole.rss - local.rss) <= 1e-9 * whole.rss
+        bare = fit_effect(td, extra, names, bounds, base, 0, stderr=False)  # a cross-validation's fit
+        if coupled_joints(extra, td.valid, 0).size == 1:
+            assert np.array_equal(bare.values, local.values) and bare.rss == local.rss
+            assert np.all(np.isnan(bare.stderr[-len(h.params):]))
         k = len(h.params)
         # 1e-7: a warm-up drift of 3 s is nearly collinear with the constant offset beside it
         # (1 - exp(-t/3) is 1 after the first seconds), which costs the errors two digits

@@ -246,11 +246,12 @@ def _two_fold_rss(td, reg, folds: list):
 
     P = len(td.names)
     total = 0.0
+    size = np.max(np.abs(reg[td.valid]), initial=0.0)
     for fit_on, test_on, base, base_res in folds:
-        if not reaches_fold(reg, fit_on.valid, td.valid):
+        if not reaches_fold(reg, fit_on.valid, td.valid, size):
             total += float(np.sum(base_res ** 2))  # no contact in this fold: it cannot predict the stop
             continue
-        f = fit_effect(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)), base, 0)
+        f = fit_effect(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)), base, 0, stderr=False)
         test = test_on.valid
         # the fit moves few of the base's columns (the stop's joint's block): the test residual
         # is the base's less those changes and the stop's own torque, without the whole

@@ -50,33 +50,37 @@ def coupled_joints(extra: np.ndarray, valid: np.ndarray, base_cols: int) -> np.n
         joints = grown
 
 
-def reaches_fold(own: np.ndarray, fold_valid: np.ndarray, valid: np.ndarray) -> bool:
+def reaches_fold(own: np.ndarray, fold_valid: np.ndarray, valid: np.ndarray, size: float | None = None) -> bool:
     """Whether an effect's own regressor columns ``own`` (N, J, E) carry data in a fold's
-    samples: more than 1e-6 of their largest value over all valid samples.  A fold the effect
+    samples: more than 1e-6 of their largest value over all valid samples (``size``, if the
+    caller has it).  A fold the effect
     reaches only through a filter's far tails (an end stop pressed in the other fold's blocks,
     or only where its joint is left out) cannot fit it: least squares would leave it at a
     start of its own choosing (scipy's trf then warns of invalid values)."""
-    size = np.max(np.abs(own[valid]), initial=0.0)
+    size = np.max(np.abs(own[valid]), initial=0.0) if size is None else size
     return bool(np.max(np.abs(own[fold_valid]), initial=0.0) > 1e-6 * size)
 
 
-def fit_effect(td: TorqueData, extra: np.ndarray, names: list, bounds, base: Fit, base_cols: int) -> Fit:
+def fit_effect(td: TorqueData, extra: np.ndarray, names: list, bounds, base: Fit, base_cols: int,
+               stderr: bool = True) -> Fit:
     """``fit_rigid_body(td, extra, names, bounds)``, solved at the joints the effect's own
     columns (the last ones after ``base_cols`` extra columns of kept terms) change
     (:func:`coupled_joints`, :func:`fit_at_joints`) when those are not all of them.  ``base``
-    is the fit without the effect (``fit_rigid_body(td, *base_extra)``)."""
+    is the fit without the effect (``fit_rigid_body(td, *base_extra)``).  ``stderr=False``:
+    a fit whose values alone are wanted (a cross-validation's); its changed columns' standard
+    errors are left NaN, not computed."""
     joints = coupled_joints(extra, td.valid, base_cols)
     if joints.size == td.residual.shape[1]:
         return fit_rigid_body(td, extra, names, bounds)
-    return fit_at_joints(td, extra, names, bounds, base, joints)
+    return fit_at_joints(td, extra, names, bounds, base, joints, stderr)
 
 
 def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, base: Fit,
-                  joints: np.ndarray) -> Fit:
+                  joints: np.ndarray, stderr: bool = True) -> Fit:
     """The whole torque-balance fit with ``extra`` (N, J, E) (named ``extra_names``, bounded by
     ``bounds``) when only the blocks of free columns of ``joints`` change from ``base`` (a fit
     over the same rows with the first columns of ``extra``; no free column couples one of
-    ``joints`` to another joint)."""
+    ``joints`` to another joint); ``stderr=False``: see :func:`fit_effect`."""
     cal = td.calibration
     names = list(td.names) + list(extra_names)
     v = td.valid
@@ -110,11 +114,12 @@ def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, 
     se = np.full(len(names), np.nan)
     se[: len(base.stderr)] = base.stderr
     n_free = int(free.sum())
-    if block.any():  # Gauss-Markov with the whole fit's s^2 = rss / (n - p); J^T J is block diagonal
+    if block.any() and stderr:  # Gauss-Markov with the whole fit's s^2 = rss / (n - p); J^T J is block diagonal
         local, cond = covariance(A[:, block], rss * (y.size - block.sum()) / max(y_all.size - n_free, 1), y.size)
         se[block] = local
     else:
         cond = base.condition
+        se[block] = np.nan  # not computed (stderr=False)
     at = [n for n, val, a, b, f in zip(names, x, lo, hi, free)
           if f and ((np.isfinite(a) and val - a < 1e-6) or (np.isfinite(b) and b - val < 1e-6))]
     return Fit(list(names), x, se, rss, y_all.size, cond, at, residual.ravel())

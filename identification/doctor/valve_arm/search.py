@@ -463,7 +463,8 @@ def crossval_torque(s: Scored, exp, td, base_extra, block, folds: dict | None = 
             after = after + base_rms ** 2  # this fold cannot fit it: it predicts nothing there
             continue
         # the effect at its joint alone where it acts at one (joint_fit): the same fit
-        after = after + torque_rms(test_on, fit_effect(fit_on, extra, names, bounds, base, base_cols), extra, block) ** 2
+        after = after + torque_rms(test_on, fit_effect(fit_on, extra, names, bounds, base, base_cols, stderr=False),
+                                   extra, block) ** 2
     s.heldout_before, s.heldout_after = np.sqrt(before / 2), np.sqrt(after / 2)
     s.judged_by = "two-fold cross-validation on the training data (the held-out motions never reach its regime)"
 
