@@ -158,7 +158,7 @@ def test_a_stop_one_folds_blocks_never_touch_leaves_that_fold_at_the_base():
     td = torque_data(exp)
     fit_rigid_body(td)
     folds = H._stop_folds(td)
-    (first, second), = [td.two_fold()[0]]
+    first, _ = td.two_fold()[0]
     reg = td.mask(H._stop_regs(exp, 0, 0.0, 1))
     reg[first.valid] = 0.0          # contact only in the second fold's blocks
     rss = H._two_fold_rss(td, reg, folds)
