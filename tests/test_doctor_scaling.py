@@ -46,7 +46,7 @@ def test_effect_fits_at_one_joint_equal_the_whole_fit():
     from identification.doctor.valve_arm.joint_fit import coupled_joints, fit_at_joints, fit_effect
     from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
     from identification.doctor.valve_arm.screening import stack_terms, torque_rms
-    from identification.doctor.valve_arm.search import crossval_torque
+    from identification.doctor.valve_arm.torque_judge import crossval_torque
     from identification.doctor.valve_arm.screening import Scored
 
     robot = load_robot("arm2")

@@ -14,7 +14,7 @@ from .pneumatic import PneumaticMods, replay
 from .hypotheses import ANGLE_PROFILE_BIN_RAD
 from .regimes import chamber_regimes, joint_regimes
 from .rules import HORIZON, MECH_KEEP, PNEU_KEEP, TRAIN_RATIO, UNEXPLAINED_RATIO, DoctorRun, Finding
-from .search import joint_residual, mech_block, stacked_regressors
+from .torque_judge import joint_residual, mech_block, stacked_regressors
 from .sensor_offsets import apply_offset
 
 
@@ -148,7 +148,7 @@ def _unexplained_chambers(run: DoctorRun, res_h, res_base_h, rms_c, rms_t, idx_h
 def outside_torque(robot, held, td_h, rfit, j: int, best: Finding | None, yard_gain: float,
                    by: str = "state", angles: tuple | None = None) -> dict:
     """The unexplained entry of joint j, whose torque residual a smooth function of its state
-    (``by`` "state") or a torque of its angle alone ("angle": search.outside_without_finding)
+    (``by`` "state") or a torque of its angle alone ("angle": torque_judge.outside_without_finding)
     takes up far better than the library's best effect (``best``; None: no library effect paid
     at all there); ``angles``: the joint's held-out angle NRMSE in the pressure-driven replay
     without and with that torque, where the search judged it so."""

@@ -12,8 +12,7 @@ import numpy as np
 from identification.base.statistics import robust_ceiling
 
 from .flex_check import block_samples, partial_projection, suggested_candidates
-from .joint_fit import fit_effect, reaches_fold
-from .hypotheses import angle_profile_yardstick, mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
+from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
 from .angle_replay import angle_rule_verdict, yardstick_angle
 from .calibrate import SCALE_BOUND
 from .compliance import compliant_wall
@@ -24,7 +23,6 @@ from .rules import (
     ISOLABLE,
     MAX_FITS,
     MAX_ROUNDS,
-    MECH_BLOCK_S,
     MECH_KEEP,
     MIN_FITS,
     MIN_T,
@@ -40,6 +38,7 @@ from .rules import (
 )
 from .sensor_offsets import corrected, offset_place
 from .supply_receiver import receiver_candidate
+from .torque_judge import heldout_torque, mech_block, outside_without_finding, stacked_regressors
 from .weak_supply import note_supply_candidates
 from .screening import (
     Scored,
@@ -420,113 +419,6 @@ def worth_fitting(cands: list) -> list:
         labels += [s.hyp.label] if new else []
         out.append(s)
     return out
-
-
-def heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block, exp=None, td=None, folds=None):
-    """Held-out torque RMS per joint before (``base_h``) and after s's fit, in ``block`` means.
-
-    Where the held-out data never enter the effect's regime (its regressors are zero on every
-    usable held-out sample: a bumper the held-out motions never reach) they can neither
-    confirm nor refute it; then, given the training data (``exp``, ``td``), the same numbers
-    come from a two-fold cross-validation on them (each half predicted by a fit to the other;
-    ``folds``: a dict the round's hypotheses share, holding the folds and their base fits).
-    """
-    ex = s.hyp.regressor(held, td_h)
-    if exp is not None and not np.any(ex[td_h.valid]):
-        crossval_torque(s, exp, td, base_extra, block, folds)
-        return
-    full = ex if base_extra is None else np.concatenate([stacked_regressors(kept_mech, held, td_h), ex], axis=2)
-    s.heldout_before, s.heldout_after = base_h, torque_rms(td_h, s.fit, full, block)
-
-
-def crossval_folds(td, base_extra, block) -> list:
-    """[(fit on, test on, the base fit on the first, its RMS per joint on the second)] of the
-    two-fold split of ``td``: computed once for every hypothesis a round cross-validates."""
-    out = []
-    for fit_on, test_on in td.two_fold():
-        base = fit_rigid_body(fit_on, *base_extra) if base_extra else fit_rigid_body(fit_on)
-        out.append((fit_on, test_on, base, torque_rms(test_on, base, None if base_extra is None else base_extra[0], block)))
-    return out
-
-
-def crossval_torque(s: Scored, exp, td, base_extra, block, folds: dict | None = None):
-    extra, names, bounds = stack_terms(base_extra, s.hyp.regressor(exp, td), s.hyp)
-    if folds is None:
-        folds = {}
-    if "folds" not in folds:
-        folds["folds"] = crossval_folds(td, base_extra, block)
-    base_cols = 0 if base_extra is None else base_extra[0].shape[2]
-    before, after = 0.0, 0.0
-    for fit_on, test_on, base, base_rms in folds["folds"]:
-        before = before + base_rms ** 2
-        if not reaches_fold(extra[:, :, base_cols:], fit_on.valid, td.valid):
-            after = after + base_rms ** 2  # this fold cannot fit it: it predicts nothing there
-            continue
-        # the effect at its joint alone where it acts at one (joint_fit): the same fit
-        after = after + torque_rms(test_on, fit_effect(fit_on, extra, names, bounds, base, base_cols, stderr=False),
-                                   extra, block) ** 2
-    s.heldout_before, s.heldout_after = np.sqrt(before / 2), np.sqrt(after / 2)
-    s.judged_by = "two-fold cross-validation on the training data (the held-out motions never reach its regime)"
-
-
-def mech_block(exp) -> int:
-    """Samples in one MECH_BLOCK_S mean of the torque residual."""
-    return max(1, int(round(MECH_BLOCK_S * exp.rate_hz)))
-
-
-def joint_residual(td, rfit, j: int) -> np.ndarray:
-    """Joint j's torque residual (N,) after the calibrated rigid body, 0 where not valid."""
-    r = td.residual[:, j] - np.einsum("np,p->n", td.regressors[:, j], rfit.values)
-    return np.where(td.valid, r, 0.0)
-
-
-def outside_without_finding(robot, exp, td, held, td_h, findings, outside, kept_mech, base_extra, judge=None) -> list:
-    """(joint, None, held-out gain, what it depends on) for each joint where no library effect
-    was kept, yet a yardstick still removes >= MECH_KEEP of the held-out torque residual left
-    after everything kept, with a parameter >= MIN_T standard errors: a torque the library does
-    not hold and none of its effects even partly mimics.  First the smooth torque of the joint's
-    state (a spring about a rest angle where gravity is weak); then, where it does not pay, the
-    angle profile (a detent or cogging torque, periodic in the angle).  Measured before adding
-    the first, on the joints of 26 recordings with no mechanical effect there (pneumasim nulls,
-    pneumatic-only cases, the published truthsim ones): the yardstick's held-out gain was 0.025
-    at most; none of the 94 cases of the arm2 blind and variant benchmarks was reported
-    unexplained this way.  The angle profile's held-out gain on the 24 joints of 12 development
-    nulls of the random-form generator: -0.02 or less; on its two cogging joints 0.94 and 0.97.
-    With 12 joints or more a gain must also stand out of the joints' (statistics.robust_ceiling).
-    ``judge(yard)``, if given, must also accept the paying yardstick (search: its torque replays
-    its joint's held-out angle, :func:`_moves_its_angle`); a joint it rejects tries the next yardstick."""
-    done = {f.scored.hyp.joint for f in findings if f.scored.hyp.kind == "mechanical"} | {j for j, *_ in outside}
-    todo = [j for j in range(len(robot.joint_names)) if j not in done]
-    if not todo:
-        return []
-    block = mech_block(held)
-    out = []
-    for by, make in (("state", lambda j: smooth_torque_yardstick(robot, j)),
-                     ("angle", lambda j: angle_profile_yardstick(robot, j, exp))):
-        yards, base = score_mechanical(td, exp, [make(j) for j in todo], base_extra)
-        base_h = torque_rms(td_h, base, None if base_extra is None else stacked_regressors(kept_mech, held, td_h), block)
-        for yard in yards:
-            heldout_torque(yard, held, td_h, kept_mech, base_extra, base_h, block)
-        # on a robot with many joints, also above their spread: the floor set per robot from the
-        # data, as for the chambers (flexible.paying)
-        floor = max(MECH_KEEP, robust_ceiling([y.heldout_gain for y in yards]))
-        for j, yard in zip(todo, yards):
-            k = len(yard.hyp.params)
-            values, stderr = np.abs(yard.fit.values[-k:]), yard.fit.stderr[-k:]
-            # an angle bin the fit's valid samples leave empty has no error bar: no evidence
-            ok = np.isfinite(stderr) & (stderr > 0)
-            t = values[ok] / stderr[ok]
-            if yard.heldout_gain >= floor and t.size and t.max() >= MIN_T and (judge is None or judge(yard)):
-                out.append((j, None, yard.heldout_gain, by))
-        todo = [j for j in todo if j not in {o[0] for o in out}]
-        if not todo:
-            break
-    return out
-
-
-def stacked_regressors(hyps, exp, td):
-    """The regressors of hypotheses ``hyps`` side by side, (N, n_joint, n_params)."""
-    return np.concatenate([h.regressor(exp, td) for h in hyps], axis=2)
 
 
 #: each torque-balance parameter the doctor reports -> its MechMods attribute (replay.MechMods);
