@@ -198,11 +198,13 @@ def generalization_case(case: dict) -> dict:
     secs = time.perf_counter() - t0
     lenient = judge(truth, report)
     c = truth.get("concealment", {})
+    seen = truth.get("heldout_visibility") or {}  # the same measure on the held-out recording
     return {"index": case["index"], "seed": case["seed"], "case": folder.name, "folder": f"cases/{folder.name}",  # in --out
             "kind": case_kind(case["families"]), "families": case["families"] or ["none"],
             "generator": truth.get("generator"), "effects": [_effect_row(e) for e in truth["effects"]],
             "scale": c.get("scale", 1.0), "effect_scales": c.get("effect_scales"),
             "generator_min_r2": c.get("min_r2"), "concealed": c.get("concealed"),
+            "heldout_min_r2": seen.get("min_r2"), "heldout_regime_fraction": seen.get("regime_fraction"),
             "verdict": report["verdict"], "doctor_error": error,
             "findings": [_finding_row(f) for f in report["findings"]],
             "unexplained": [{"where": u.get("where"), "regime": u.get("regime"),

@@ -96,3 +96,39 @@ def test_a_bumper_of_another_law_pressed_by_a_few_milliradians_is_named(tmp_path
             else e["reach_lower_rad"] - STOP_MARGIN_RAD + e["lower_intrusion_rad"])
     assert abs(p["stop_rad"]["value"] - stop) < 0.005
     assert p["stiffness_nm_per_rad"]["value"] > 50  # a stop, not a spring
+
+
+def test_a_bumper_the_held_out_motions_only_graze_is_left_to_the_training_data():
+    """torque_judge.scarce_in_heldout: a stop pressed 10 % of the training samples by 10 mrad and
+    grazed by 2 mrad in 0.5 % of the held-out ones carries far less than SCARCE_SHARE of its
+    training torque there: the held-out data cannot judge it.  Held-out motions that press it
+    as often can; an effect that is not local is never handed over."""
+    from types import SimpleNamespace
+
+    from identification.doctor.valve_arm.hypotheses import Hypothesis
+    from identification.doctor.valve_arm.screening import Scored
+    from identification.doctor.valve_arm.torque_judge import scarce_in_heldout
+
+    n = 2000
+    pressed = np.zeros((n, 2, 2))
+    pressed[:200, 0, 0], pressed[:200, 0, 1] = 0.010, 0.0
+    grazed = np.zeros((n, 2, 2))
+    grazed[:10, 0, 0] = 0.002
+    train = SimpleNamespace(valid=np.ones(n, bool), mask=lambda a: a)
+    held = SimpleNamespace(valid=np.ones(n, bool), mask=lambda a: a)
+    exp_t, exp_h = object(), object()
+    on_held = {"now": grazed}
+
+    def reg(e, td):
+        return pressed if e is exp_t else on_held["now"]
+
+    def scored(local):
+        h = Hypothesis("end_stop", {"joint": "j0"}, "mechanical", [("stiffness_nm_per_rad", 20.0, 20.0, np.inf, 0.0),
+                       ("damping_nm_s_per_rad", 0.0, 0.0, np.inf, 0.0)], joint=0, regressor=reg, local=local)
+        return Scored(h, 0.2, fit=SimpleNamespace(values=np.array([0.01, -0.02, 300.0, 0.5])))
+
+    assert scarce_in_heldout(scored(True), reg(exp_h, held), held, exp_t, train)
+    on_held["now"] = pressed[::-1].copy()  # the same presses at other times
+    assert not scarce_in_heldout(scored(True), reg(exp_h, held), held, exp_t, train)
+    on_held["now"] = grazed
+    assert not scarce_in_heldout(scored(False), reg(exp_h, held), held, exp_t, train)

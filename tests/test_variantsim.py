@@ -251,6 +251,9 @@ def test_make_case_writes_readable_recordings_and_truth(tmp_path):
     assert set(COLUMNS[1:]) <= set(rec.columns)
     assert len(rec.time) == 300 and truth["effects"][0]["scale"] == truth["concealment"]["scale"]
     assert set(truth["concealment"]["r2_per_channel"]) == set(COLUMNS[1:7])
+    # the same visibility measure on the held-out recording: an external leak acts all the time
+    seen = truth["heldout_visibility"]
+    assert set(seen["r2_per_channel"]) == set(COLUMNS[1:7]) and seen["regime_fraction"] > 0.5
     assert (tmp_path / "variant_11.truth.json").exists()
 
 

@@ -182,6 +182,10 @@ def make_case(out: Path, seed: int, families: list[str], *, forms: list | None =
              "effects": truth_effects, "locations": [{"family": e["family"], "where": e["where"]} for e in effects],
              "parameter_perturbation": {"fraction": fraction, "factors": factors},
              "concealment": concealment,
+             # the same measure on the held-out recording, which follows another reference: an
+             # effect the held-out motions hardly reach (a bumper touched in the main recording
+             # alone) cannot be confirmed there (DESIGN.md's keep rule on held-out data)
+             "heldout_visibility": concealment_stats(cfg, held) if effects else None,
              "recordings": {**paths, "main_seconds": seconds, "heldout_seconds": heldout_seconds, "rate_hz": 100.0,
                             "noise_sd": {"angle_rad": ANGLE_NOISE_RAD, "pressure_pa": PRESSURE_NOISE_PA}},
              "tracking_rms_deg": {"main": _tracking(main), "heldout": _tracking(held)},

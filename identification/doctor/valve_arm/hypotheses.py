@@ -46,6 +46,7 @@ class Hypothesis:
     form: str = ""                # the family's form when not its first (tells two forms at one place apart)
     state_torque: Callable | None = None    # (values (k,), q (W,), qd (W,)) -> torque applied at its joint (W,) [N m]:
                                             # the yardsticks' fitted torque, for the angle replay (angle_replay)
+    local: bool = False           # acts in a regime of its joint's angle alone (an end stop in contact)
 
     def keep_mask(self) -> np.ndarray:
         """(k,) bool: the parameters that must each be MIN_T standard errors from 0 (a sensor's
@@ -330,7 +331,7 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
                 fixed={"stop_rad": {"value": stop, "stderr": stderr}, "side_sign": {"value": float(side), "stderr": 0.0}},
                 # the stiffness makes it a stop; a bumper pressed by a few mrad at low speed
                 # need not show its damping (kept in the law, at 0 if the data want none)
-                tested=(0,)))
+                tested=(0,), local=True))
     return out
 
 

@@ -20,17 +20,36 @@ def heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block, 
     """Held-out torque RMS per joint before (``base_h``) and after s's fit, in ``block`` means.
 
     Where the held-out data never enter the effect's regime (its regressors are zero on every
-    usable held-out sample: a bumper the held-out motions never reach) they can neither
-    confirm nor refute it; then, given the training data (``exp``, ``td``), the same numbers
+    usable held-out sample: a bumper the held-out motions never reach), or hardly
+    (:func:`scarce_in_heldout`), they can neither confirm nor refute it; then, given the training data (``exp``, ``td``), the same numbers
     come from a two-fold cross-validation on them (each half predicted by a fit to the other;
     ``folds``: a dict the round's hypotheses share, holding the folds and their base fits).
     """
     ex = s.hyp.regressor(held, td_h)
-    if exp is not None and not np.any(ex[td_h.valid]):
+    if exp is not None and (not np.any(ex[td_h.valid]) or scarce_in_heldout(s, ex, td_h, exp, td)):
         crossval_torque(s, exp, td, base_extra, block, folds)
         return
     full = ex if base_extra is None else np.concatenate([stacked_regressors(kept_mech, held, td_h), ex], axis=2)
     s.heldout_before, s.heldout_after = base_h, torque_rms(td_h, s.fit, full, block)
+
+
+#: a local effect's fitted torque carries less than this share of its mean square per training
+#: sample on the held-out samples: the held-out motions hardly reach its regime (a bumper the
+#: training motions press and the held-out ones only graze)
+SCARCE_SHARE = 0.1
+
+
+def scarce_in_heldout(s: Scored, ex_h: np.ndarray, td_h, exp, td) -> bool:
+    """Whether a local effect (``hyp.local``: an end stop) acts on the held-out samples so much
+    less than on the training ones (its fitted torque's mean square per usable sample below
+    SCARCE_SHARE of the training's) that the held-out data can neither confirm nor refute it."""
+    if not s.hyp.local:
+        return False
+    k = ex_h.shape[2]
+    own = s.fit.values[-k:]
+    held = np.einsum("nje,e->nj", ex_h[td_h.valid], own)
+    train = np.einsum("nje,e->nj", s.hyp.regressor(exp, td)[td.valid], own)
+    return bool(np.mean(held ** 2) < SCARCE_SHARE * np.mean(train ** 2))
 
 
 def crossval_folds(td, base_extra, block) -> list:
