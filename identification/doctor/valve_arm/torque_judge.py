@@ -79,7 +79,7 @@ def crossval_torque(s: Scored, exp, td, base_extra, block, folds: dict | None = 
         after = after + torque_rms(test_on, fit_effect(fit_on, extra, names, bounds, base, base_cols, stderr=False),
                                    extra, block) ** 2
     s.heldout_before, s.heldout_after = np.sqrt(before / 2), np.sqrt(after / 2)
-    s.judged_by = "two-fold cross-validation on the training data (the held-out motions never reach its regime)"
+    s.judged_by = "two-fold cross-validation on the training data (the held-out motions reach its regime hardly or not at all)"
 
 
 def mech_block(exp) -> int:
