@@ -68,6 +68,9 @@ def restricted_robot(robot: Robot, joints, label: str) -> Robot:
         if sensor.objtype == mujoco.mjtObj.mjOBJ_JOINT and sensor.objname not in keep:
             spec.delete(sensor)
     for joint in [j for j in spec.joints if j.name not in keep]:
+        if joint.type not in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+            raise ConfigError(f"{robot.name}[{label}]: joint {joint.name!r} is a {joint.type.name} joint; only hinge "
+                              "and slide joints can be locked")
         _lock(spec, m, joint.name, float(home[m.jnt_qposadr[m.joint(joint.name).id]]))
         spec.delete(joint)
     kept = [n for n in robot.joint_names if n in keep]  # in the model's order
