@@ -215,8 +215,8 @@ def run(ctx):
     remember_seed_base(ctx.out, base, source)
     cases, seconds, held_s = plan(ctx.fast, base)
     specs = [{"seed": s, "families": f, "seconds": seconds, "heldout_seconds": held_s} for s, f in cases]
-    parts = TIMED_SUBSETS[:1] if ctx.fast else TIMED_SUBSETS
-    specs += [{"subset": p, "seed": 2 + k, "seconds": seconds, "heldout_seconds": held_s} for k, p in enumerate(parts)]
+    timed = TIMED_SUBSETS[:1] if ctx.fast else TIMED_SUBSETS
+    specs += [{"subset": p, "seed": 2 + k, "seconds": seconds, "heldout_seconds": held_s} for k, p in enumerate(timed)]
     specs.append({"arm2_timing": True, "seed": 1, "seconds": seconds, "heldout_seconds": held_s})
     results = sweep(sweep_case, specs, out=ctx.out / "sweep", **options_from_env())
     raise_on_failure(results, "doctor_benchmark_humanoid38")
