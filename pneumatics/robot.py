@@ -194,6 +194,25 @@ def _check_travel(name, model, fluid, ids, length_zero, samples: int = 400):
                                   f"[0, {a.stroke:.4g}]) at a pose inside the joint ranges")
 
 
+def actuator_moment_arms(robot: Robot, qpos=None) -> dict[str, dict[str, float]]:
+    """Fluid actuator -> {joint name: |moment arm|} at the pose ``qpos`` (the model's whole
+    qpos; default qpos0): the joints each actuator moves whatever its transmission (a joint, a
+    tendon across pins), read from MuJoCo's sparse actuator_moment rows after mj_forward
+    (moment arms in m for a linear cylinder on a hinge, 1 for a vane on its own joint)."""
+    m = robot.model
+    d = mujoco.MjData(m)
+    if qpos is not None:
+        d.qpos[:] = qpos
+    mujoco.mj_forward(m, d)
+    out = {}
+    for name, a in zip(robot.actuator_names, robot.actuator_ids):
+        lo = d.moment_rowadr[int(a)]
+        row = slice(lo, lo + d.moment_rownnz[int(a)])
+        out[name] = {m.joint(int(m.dof_jntid[c])).name: float(abs(v))
+                     for c, v in zip(d.moment_colind[row], d.actuator_moment[row])}
+    return out
+
+
 def joint_index(robot: Robot, joint: str) -> int:
     if joint not in robot.joint_names:
         raise UnknownNameError("joint", joint, robot.joint_names)

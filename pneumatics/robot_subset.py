@@ -21,22 +21,14 @@ import numpy as np
 
 from .errors import ConfigError, UnknownNameError
 from .io import atomic_write_text
-from .robot import Robot, assemble_robot
+from .robot import Robot, actuator_moment_arms, assemble_robot
 
 
-def actuated_joints(robot: Robot) -> dict[str, set[str]]:
-    """Fluid actuator -> the names of the joints it moves: those with a nonzero moment arm at
-    the ``home`` pose (qpos0 if none), whatever its transmission (a joint, a tendon, a slider)."""
-    m = robot.model
-    d = mujoco.MjData(m)
-    if m.nkey:
-        mujoco.mj_resetDataKeyframe(m, d, 0)
-    mujoco.mj_forward(m, d)
-    moment = np.zeros((m.nu, m.nv))
-    mujoco.mju_sparse2dense(moment, d.actuator_moment, d.moment_rownnz, d.moment_rowadr, d.moment_colind)
-    joint_of_dof = {int(m.jnt_dofadr[m.joint(n).id]): n for n in robot.joint_names}
-    return {name: {joint_of_dof[v] for v in np.flatnonzero(np.abs(moment[int(i)]) > 1e-12) if v in joint_of_dof}
-            for name, i in zip(robot.actuator_names, robot.actuator_ids)}
+def actuated_joints(robot: Robot, qpos=None) -> dict[str, set[str]]:
+    """Fluid actuator -> the names of the joints it moves at the pose ``qpos`` (default qpos0):
+    those with a nonzero moment arm (pneumatics.robot.actuator_moment_arms)."""
+    return {name: {j for j, arm in arms.items() if arm > 1e-12}
+            for name, arms in actuator_moment_arms(robot, qpos).items()}
 
 
 def restricted_robot(robot: Robot, joints, label: str) -> Robot:
@@ -52,15 +44,15 @@ def restricted_robot(robot: Robot, joints, label: str) -> Robot:
         raise UnknownNameError("joint", unknown[0], robot.joint_names)
     if robot.mjcf_path is None:
         raise ConfigError(f"{robot.name}: no MJCF file to restrict (a robot built in memory)")
-    moved = actuated_joints(robot)
+    m = robot.model
+    home = m.key("home").qpos if "home" in [m.key(i).name for i in range(m.nkey)] else m.qpos0
+    moved = actuated_joints(robot, home)
     acts = [a for a, js in moved.items() if js & set(keep)]
     straddle = [a for a in acts if not moved[a] <= set(keep)]
     if straddle:
         raise ConfigError(f"{robot.name}[{label}]: actuator {straddle[0]!r} moves "
                           f"{', '.join(sorted(moved[straddle[0]]))}, not all of them kept")
     spec = mujoco.MjSpec.from_file(str(robot.mjcf_path))
-    m = robot.model
-    home = m.key("home").qpos if "home" in [m.key(i).name for i in range(m.nkey)] else m.qpos0
     for a in list(spec.actuators):
         if a.name not in acts:
             spec.delete(a)

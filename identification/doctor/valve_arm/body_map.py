@@ -21,6 +21,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from pneumatics.robot import actuator_moment_arms
+
 FINDING_RGB = (0.85, 0.1, 0.1)
 UNEXPLAINED_RGB = (0.95, 0.55, 0.0)
 
@@ -45,21 +47,10 @@ class Mark:
 
 
 def actuator_joints(robot) -> dict[str, str]:
-    """actuator name -> the joint it drives: the degree of freedom of its largest moment arm at
-    the reference pose (a rotary actuator's transmission is its joint; a linear cylinder's is
-    a spatial tendon across one joint)."""
-    m = robot.model
-    d = reference_pose(m)
-    mujoco.mj_forward(m, d)  # actuator moments (sparse rows: rownnz, rowadr, colind)
-    out = {}
-    for name, a in zip(robot.actuator_names, robot.actuator_ids):
-        a = int(a)
-        lo = d.moment_rowadr[a]
-        cols = d.moment_colind[lo: lo + d.moment_rownnz[a]]
-        arms = np.abs(d.actuator_moment[lo: lo + d.moment_rownnz[a]])
-        if cols.size:
-            out[name] = m.joint(int(m.dof_jntid[cols[int(np.argmax(arms))]])).name
-    return out
+    """actuator name -> the joint it drives: the one of its largest moment arm at the reference
+    pose (pneumatics.robot.actuator_moment_arms: a rotary actuator's transmission is its joint;
+    a linear cylinder's is a spatial tendon across one joint)."""
+    return {name: max(arms, key=arms.get) for name, arms in actuator_moment_arms(robot).items() if arms}
 
 
 def marks(robot, report: dict) -> tuple[dict[str, Mark], list[str]]:
