@@ -127,8 +127,8 @@ def test_a_bumper_the_held_out_motions_only_graze_is_left_to_the_training_data()
                        ("damping_nm_s_per_rad", 0.0, 0.0, np.inf, 0.0)], joint=0, regressor=reg, local=local)
         return Scored(h, 0.2, fit=SimpleNamespace(values=np.array([0.01, -0.02, 300.0, 0.5])))
 
-    assert scarce_in_heldout(scored(True), reg(exp_h, held), held, exp_t, train)
+    assert scarce_in_heldout(scored(True), reg(exp_h, held), held, reg(exp_t, train), train)
     on_held["now"] = pressed[::-1].copy()  # the same presses at other times
-    assert not scarce_in_heldout(scored(True), reg(exp_h, held), held, exp_t, train)
+    assert not scarce_in_heldout(scored(True), reg(exp_h, held), held, reg(exp_t, train), train)
     on_held["now"] = grazed
-    assert not scarce_in_heldout(scored(False), reg(exp_h, held), held, exp_t, train)
+    assert not scarce_in_heldout(scored(False), reg(exp_h, held), held, reg(exp_t, train), train)

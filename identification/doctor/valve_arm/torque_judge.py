@@ -26,9 +26,11 @@ def heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block, 
     ``folds``: a dict the round's hypotheses share, holding the folds and their base fits).
     """
     ex = s.hyp.regressor(held, td_h)
-    if exp is not None and (not np.any(ex[td_h.valid]) or scarce_in_heldout(s, ex, td_h, exp, td)):
-        crossval_torque(s, exp, td, base_extra, block, folds)
-        return
+    if exp is not None:
+        ex_t = s.hyp.regressor(exp, td) if s.hyp.local else None  # its training regressor, used twice
+        if not np.any(ex[td_h.valid]) or scarce_in_heldout(s, ex, td_h, ex_t, td):
+            crossval_torque(s, exp, td, base_extra, block, folds, ex_t)
+            return
     full = ex if base_extra is None else np.concatenate([stacked_regressors(kept_mech, held, td_h), ex], axis=2)
     s.heldout_before, s.heldout_after = base_h, torque_rms(td_h, s.fit, full, block)
 
@@ -39,16 +41,17 @@ def heldout_torque(s: Scored, held, td_h, kept_mech, base_extra, base_h, block, 
 SCARCE_SHARE = 0.1
 
 
-def scarce_in_heldout(s: Scored, ex_h: np.ndarray, td_h, exp, td) -> bool:
+def scarce_in_heldout(s: Scored, ex_h: np.ndarray, td_h, ex_t: np.ndarray | None, td) -> bool:
     """Whether a local effect (``hyp.local``: an end stop) acts on the held-out samples so much
     less than on the training ones (its fitted torque's mean square per usable sample below
-    SCARCE_SHARE of the training's) that the held-out data can neither confirm nor refute it."""
+    SCARCE_SHARE of the training's) that the held-out data can neither confirm nor refute it.
+    ``ex_h``, ``ex_t``: its regressors on the held-out and the training data."""
     if not s.hyp.local:
         return False
     k = ex_h.shape[2]
     own = s.fit.values[-k:]
     held = np.einsum("nje,e->nj", ex_h[td_h.valid], own)
-    train = np.einsum("nje,e->nj", s.hyp.regressor(exp, td)[td.valid], own)
+    train = np.einsum("nje,e->nj", ex_t[td.valid], own)
     return bool(np.mean(held ** 2) < SCARCE_SHARE * np.mean(train ** 2))
 
 
@@ -62,8 +65,11 @@ def crossval_folds(td, base_extra, block) -> list:
     return out
 
 
-def crossval_torque(s: Scored, exp, td, base_extra, block, folds: dict | None = None):
-    extra, names, bounds = stack_terms(base_extra, s.hyp.regressor(exp, td), s.hyp)
+def crossval_torque(s: Scored, exp, td, base_extra, block, folds: dict | None = None, ex_t=None):
+    """``s``'s held-out numbers from the two-fold cross-validation on the training data (``ex_t``:
+    its regressor there, if the caller has it)."""
+    ex_t = s.hyp.regressor(exp, td) if ex_t is None else ex_t
+    extra, names, bounds = stack_terms(base_extra, ex_t, s.hyp)
     if folds is None:
         folds = {}
     if "folds" not in folds:
