@@ -57,11 +57,12 @@ def humanoid_families() -> list[str]:
 #: doctor-time plot's points between arm2's 4 chambers and the whole robot's 76
 _LEFT_ARM = ("left_clavicle_elevation", "left_shoulder_pitch", "left_shoulder_roll", "left_shoulder_yaw",
              "left_elbow", "left_forearm_roll", "left_wrist_pitch", "left_wrist_yaw")
+_ARMS = _LEFT_ARM + tuple(n.replace("left_", "right_") for n in _LEFT_ARM)
 SUBSETS = {
     "left_arm": _LEFT_ARM,
-    "arms": _LEFT_ARM + tuple(n.replace("left_", "right_") for n in _LEFT_ARM),
+    "arms": _ARMS,
     "upper_body": ("waist_yaw", "waist_pitch", "waist_roll", "neck_yaw", "neck_pitch", "neck_roll", "head_pitch",
-                   "jaw") + _LEFT_ARM + tuple(n.replace("left_", "right_") for n in _LEFT_ARM),
+                   "jaw") + _ARMS,
 }
 
 
