@@ -165,7 +165,7 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
         return y[idx]
     feats = _chamber_features(exp, valves, u_eff, p_mid, v_mid, dp, dv, m_s, m_e, S, bm)
     total = np.maximum(m_s, 0).sum(axis=1)
-    return FlowBlocks(bm(implied - m_model), feats, _supply_features(m_s, d_ps, bm),
+    return FlowBlocks(bm(implied - m_model), feats, _supply_features(total, d_ps, bm),
                       (starts[idx] + L // 2) // S, S, bm(d_ps), bm(total), starts[idx], L)
 
 
@@ -206,10 +206,10 @@ def _chamber_features(exp, valves, u_eff, p, v, dp, dv, m_s, m_e, S, bm) -> dict
             "valve opening": np.stack([bm(m_s), bm(m_e), bm(m_s * rel), bm(m_e * rel)], axis=2)}
 
 
-def _supply_features(m_s, d_ps, bm) -> np.ndarray:
+def _supply_features(total, d_ps, bm) -> np.ndarray:
     """(B, C, k) block means (``bm``): a supply pressure error common to all chambers, modelled
-    as a constant, the total supply flow and its low-passed histories, acting on each chamber
-    through its own d mdot_supply / d p_supply (a linearised orifice, paper 002 eq. 6)."""
-    total = np.maximum(m_s, 0).sum(axis=1, keepdims=True)                  # (F-1, 1)
+    as a constant, the total supply flow ``total`` (F-1,) and its low-passed histories, acting on
+    each chamber through its own d mdot_supply / d p_supply (a linearised orifice, paper 002 eq. 6)."""
+    total = total[:, None]                                                  # (F-1, 1)
     drivers = [total] + [lowpass(total, t) for t in SUPPLY_TAUS_S]
     return np.stack([bm(d_ps * z) for z in drivers], axis=2)
