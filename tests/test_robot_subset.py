@@ -4,8 +4,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from pneumatics.errors import UnknownNameError
-from pneumatics.robot import compile_mjcf, load_robot
+import models
+from pneumatics.errors import ConfigError, UnknownNameError
+from pneumatics.params import load_fluid
+from pneumatics.robot import assemble_robot, compile_mjcf, load_robot
 from pneumatics.robot_subset import actuated_joints, restricted_robot
 from pneumatics.sim import Simulation
 from scenarios._humanoid_cases import SUBSETS
@@ -85,3 +87,21 @@ def test_the_part_steps_without_warnings_and_its_valves_move_it(left_arm):
 def test_an_unknown_joint_is_named_with_the_valid_ones(humanoid):
     with pytest.raises(UnknownNameError, match="unknown joint 'left_elbw'; did you mean 'left_elbow'"):
         restricted_robot(humanoid, ["left_elbw"], "typo")
+
+
+def test_an_actuator_moving_a_locked_joint_too_is_refused(tmp_path):
+    """arm2 with its elbow cylinder pulling a tendon over both joints: keeping the elbow alone
+    would leave that cylinder driving a shoulder that is no longer there."""
+
+    xml = models.mjcf_path("arm2").read_text().replace(
+        '<motor class="arm2" name="elbow" joint="elbow" gear="0.025"/>',
+        '<motor class="arm2" name="elbow" tendon="coupled"/>').replace(
+        "<actuator>", '<tendon><fixed name="coupled"><joint joint="shoulder" coef="0.005"/>'
+                      '<joint joint="elbow" coef="0.025"/></fixed></tendon>\n  <actuator>', 1)
+    path = tmp_path / "arm2_coupled.xml"
+    path.write_text(xml)
+    robot = assemble_robot("arm2_coupled", compile_mjcf(path), load_fluid(models.fluid_path("arm2")), path)
+    assert actuated_joints(robot)["elbow"] == {"shoulder", "elbow"}
+    with pytest.raises(ConfigError, match=r"arm2_coupled\[elbow\]: actuator 'elbow' moves elbow, shoulder, "
+                                          "not all of them kept"):
+        restricted_robot(robot, ["elbow"], "elbow")
