@@ -36,12 +36,12 @@ import numpy as np
 
 from pneumatics.chamber import actuator_force
 from pneumatics.effects.angle_sensor_offset import reading_error
-from pneumatics.effects.backlash import addresses, backlash_model, set_drive_state
+from pneumatics.effects.backlash import addresses, set_drive_state
 
 from .data import Experiment, fine_pressures
 from .naming import add_breakaway
-from .pneumatic import PneumaticMods, Windows
-from .replay import MechMods, backlash_gaps, drive_signs, start_state
+from .pneumatic import PneumaticMods
+from .replay import MechMods, drive_signs, replay_model, start_state, step_windows, window_starts
 from .rules import DoctorRun, Finding
 from .sensor_offsets import apply_offset
 
@@ -79,11 +79,9 @@ def pressure_driven_angles(exp: Experiment, pmods: PneumaticMods, mm: MechMods,
     with the measured pressures (``pmods``'s sensor offsets removed) and ``mm``'s rigid body
     and torques; NaN on the rows no window replays."""
     robot = exp.robot
-    gaps = backlash_gaps(robot, pmods)
-    model = mm.model(backlash_model(robot, gaps) if gaps else robot.model)
+    model = replay_model(robot, pmods, mm)
     S, J, ids = exp.n_sub, len(robot.joint_names), robot.actuator_ids
-    H = max(1, int(round(horizon_s * exp.rate_hz)))
-    starts = Windows.tile(len(exp.t), H, breaks=exp.breaks).starts
+    starts, H = window_starts(exp, horizon_s)
     qadr, dadr = addresses(model, robot.joint_names)
     offset, scale, q0, qd0 = start_state(exp, starts, mm)
     forces = actuator_force(robot.tables, fine_pressures(exp, pmods))       # (F, n_act)
@@ -92,13 +90,7 @@ def pressure_driven_angles(exp: Experiment, pmods: PneumaticMods, mm: MechMods,
     out = np.full((len(exp.t), J), np.nan)
     acc = np.zeros((starts.size, J))
     for step in range(H * S):
-        q = np.array([d.qpos[qadr] for d in datas])
-        tau = mm.torque(q, np.array([d.qvel[dadr] for d in datas]))
-        for w, d in enumerate(datas):
-            d.ctrl[ids] = forces[starts[w] * S + step]
-            if tau is not None:
-                d.qfrc_applied[dadr] = tau[w]
-            mujoco.mj_step(model, d)
+        step_windows(model, datas, ids, forces[starts * S + step], mm, qadr, dadr)
         acc += np.array([d.qpos[qadr] for d in datas])
         if (step + 1) % S == 0:
             q_read = acc / S if exp.averaged else np.array([d.qpos[qadr] for d in datas])

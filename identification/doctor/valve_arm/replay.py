@@ -154,14 +154,36 @@ def start_state(exp: Experiment, starts: np.ndarray, mmods: MechMods) -> tuple:
     return offset, scale, q0, qd0
 
 
+def replay_model(robot, pmods: PneumaticMods, mmods: MechMods):
+    """The MjModel a replay steps: ``mmods``'s rigid body, with the backlash of ``pmods``
+    carried by MuJoCo (pneumatics.effects.backlash; the chambers follow the drive)."""
+    gaps = backlash_gaps(robot, pmods)
+    return mmods.model(backlash_model(robot, gaps) if gaps else robot.model)
+
+
+def window_starts(exp: Experiment, horizon_s: float) -> tuple[np.ndarray, int]:
+    """(starts, H): the recording's rows where each replay window of ``horizon_s`` begins (tiled
+    between the recording's breaks), and a window's length in rows."""
+    H = max(1, int(round(horizon_s * exp.rate_hz)))
+    return Windows.tile(len(exp.t), H, breaks=exp.breaks).starts, H
+
+
+def step_windows(model, datas, ids, forces: np.ndarray, mmods: MechMods, qadr, dadr) -> None:
+    """One physics step of every window's rigid body: the cylinders' ``forces`` (W, n_act) on
+    actuators ``ids`` and ``mmods``'s torques at the windows' joints."""
+    tau = mmods.torque(np.array([d.qpos[qadr] for d in datas]), np.array([d.qvel[dadr] for d in datas]))
+    for w, d in enumerate(datas):
+        d.ctrl[ids] = forces[w]
+        if tau is not None:
+            d.qfrc_applied[dadr] = tau[w]
+        mujoco.mj_step(model, d)
+
+
 def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horizon_s: float = 1.0) -> ReplayResult:
     robot = exp.robot
-    gaps = backlash_gaps(robot, pmods)
-    # backlash: MuJoCo carries the play (pneumatics.effects.backlash); the chambers follow the drive
-    model = mmods.model(backlash_model(robot, gaps) if gaps else robot.model)
+    model = replay_model(robot, pmods, mmods)
     S = exp.n_sub
-    H = int(round(horizon_s * exp.rate_hz))
-    starts = Windows.tile(len(exp.t), H, breaks=exp.breaks).starts
+    starts, H = window_starts(exp, horizon_s)
     W = starts.size
     J = len(robot.joint_names)
     qadr, dadr = addresses(model, robot.joint_names)
@@ -186,14 +208,7 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
     acc_p = np.zeros_like(p)
     for step in range(H * S):
         f = starts * S + step
-        forces = actuator_force(tab, p)
-        qd = np.array([d.qvel[dadr] for d in datas])
-        tau = mmods.torque(np.array([d.qpos[qadr] for d in datas]), qd)
-        for w, d in enumerate(datas):
-            d.ctrl[ids] = forces[w]
-            if tau is not None:
-                d.qfrc_applied[dadr] = tau[w]
-            mujoco.mj_step(model, d)
+        step_windows(model, datas, ids, actuator_force(tab, p), mmods, qadr, dadr)
         # lengths after the step (joint transmissions: gear * q; others need kinematics)
         for w, d in enumerate(datas):
             mujoco.mj_kinematics(model, d)
