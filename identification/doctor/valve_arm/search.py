@@ -34,7 +34,6 @@ from .rules import (
     Finding,
     keeps,
     min_predicted,
-    passes_keep_rule,
 )
 from .sensor_offsets import corrected, offset_place
 from .supply_receiver import receiver_candidate
@@ -281,9 +280,7 @@ def _keep_mechanical(run: DoctorRun, finding: Finding, scored: list, base_h, blo
     if finding.scored.hyp.form:  # may it fall back to the first form later (final_fit._fall_back)?
         first = next((s for s in scored if s.hyp.family == finding.family and s.hyp.where == finding.where
                       and not s.hyp.form), None)
-        k = 0 if first is None else len(first.hyp.params)
-        finding.first_form_pays = bool(first is not None and first.heldout_gain >= MECH_KEEP
-                                       and passes_keep_rule(first.fit.values[-k:], first.fit.stderr[-k:]))
+        finding.first_form_pays = first is not None and qualifies(first, MECH_KEEP)
     run.findings.append(finding)
     best = finding.scored
     run.tried.update(s.hyp.label for s in scored if s.hyp.family == best.hyp.family
@@ -303,27 +300,13 @@ def _keep_mechanical(run: DoctorRun, finding: Finding, scored: list, base_h, blo
 
 def accept_best(candidates: list, keep: float) -> Finding | None:
     """The best candidate by held-out gain (``rank_gain`` where set) as a Finding, if it pays
-    (gain on its own channels >= keep and its parameters >= MIN_T standard errors); families at
-    the same place explaining nearly as much are its isolability alternatives."""
+    (:func:`qualifies`); families at the same place explaining nearly as much are its
+    isolability alternatives."""
     candidates = sorted(candidates, key=lambda s: -(s.heldout_gain if s.rank_gain is None else s.rank_gain))
     for best in candidates:
-        if best.heldout_gain < keep:
+        if not qualifies(best, keep):
             continue
-        if best.own_gain is not None and best.own_gain < 0.5 * keep:
-            continue  # the refitted calibration paid, not the effect
-        if "supply" in best.hyp.where and not shared_by_chambers(best):
-            continue  # one chamber's effect standing in for the supply every chamber shares
         k = len(best.hyp.params)
-        values, ses = best.fit.values[-k:], best.fit.stderr[-k:]
-        if not (keeps(best.hyp, values, ses) or tube_volume_significant(best)):
-            # a parameter it needs is not significant (or stuck at a bound, where least squares
-            # gives no error bar: then the gain came from the calibration refitted with it)
-            continue
-        lower = np.array([p[2] for p in best.hyp.params])
-        if np.any((lower > 0) & (values <= lower * (1 + 1e-6))):
-            continue  # held at its least physical value (an end stop softer than a stop)
-        if best.hyp.kind == "mechanical" and at_plausibility_cap(best.hyp, values):
-            continue  # the linear torque fit wants more than the sensor can be off by
         # parsimony: a candidate with fewer parameters at the same place that explains nearly
         # as much wins (stiction = Coulomb + breakaway is preferred only if it pays clearly)
         richer = best
@@ -338,6 +321,29 @@ def accept_best(candidates: list, keep: float) -> Finding | None:
             alts.append(richer.hyp.family)                                # not worth it on held-out data
         return Finding(best, best.hyp.family, best.hyp.where, finding_params(best), best.heldout_gain, alts)
     return None
+
+
+def qualifies(s: Scored, keep: float) -> bool:
+    """Whether scored candidate ``s`` pays: gain on its own channels >= ``keep``, its
+    parameters >= MIN_T standard errors, none held at its least physical value or at a
+    plausibility cap, and a supply effect shared by the chambers."""
+    if s.heldout_gain < keep:
+        return False
+    if s.own_gain is not None and s.own_gain < 0.5 * keep:
+        return False  # the refitted calibration paid, not the effect
+    if "supply" in s.hyp.where and not shared_by_chambers(s):
+        return False  # one chamber's effect standing in for the supply every chamber shares
+    k = len(s.hyp.params)
+    values, ses = s.fit.values[-k:], s.fit.stderr[-k:]
+    if not (keeps(s.hyp, values, ses) or tube_volume_significant(s)):
+        # a parameter it needs is not significant (or stuck at a bound, where least squares
+        # gives no error bar: then the gain came from the calibration refitted with it)
+        return False
+    lower = np.array([p[2] for p in s.hyp.params])
+    if np.any((lower > 0) & (values <= lower * (1 + 1e-6))):
+        return False  # held at its least physical value (an end stop softer than a stop)
+    # the linear torque fit wants more than the sensor can be off by
+    return not (s.hyp.kind == "mechanical" and at_plausibility_cap(s.hyp, values))
 
 
 def at_plausibility_cap(hyp, values) -> bool:
