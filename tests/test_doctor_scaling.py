@@ -202,3 +202,32 @@ def test_a_torque_balance_finding_must_stand_out_of_its_family_at_the_other_join
     assert [s.hyp.joint for s in kept if s.hyp.family == "viscous_friction"] == [5]
     arm2 = [_scored_at(0, 0.05), _scored_at(1, 0.3)]
     assert standing_out(arm2) == arm2
+
+
+def test_a_cylinder_replayed_alone_equals_its_columns_of_the_whole_replay():
+    """pneumatic.replay(chambers=...): a cylinder's chambers stepped alone give the same numbers
+    as in the replay of all four, with a piston leak pairing them, a heat-transfer chamber, a
+    valve leak and a sensor offset elsewhere; a supply that droops with the summed flow joins
+    every chamber, and the replay refuses to split it."""
+    import pytest
+
+    from identification.doctor.valve_arm.pneumatic import cylinder_chambers, replay
+    from identification.doctor.valve_arm.screening import chamber_rms
+
+    robot = load_robot("arm2")
+    exp = prepare(robot, read_csv(SAMPLE).slice(0, 8))
+    win = Windows.tile(len(exp.t), 30)
+    mods = PneumaticMods.nominal(4).copy(
+        piston_leak_m2=np.array([0.0, 2e-8]), valve_leak_m2=np.array([1e-8, 0.0, 0.0, 3e-8]),
+        heat_w_k=np.array([np.nan, np.nan, 0.05, np.nan]), sensor_offset_pa=np.array([0.0, 2e3, -1e3, 0.0]),
+        dead_volume_scale=np.array([1.0, 1.1, 0.9, 1.2]))
+    whole, meas = replay(exp, win, mods)
+    for cylinder in ([0, 1], [2, 3]):
+        alone, meas_alone = replay(exp, win, mods, cylinder_chambers([cylinder[1]]))
+        assert np.array_equal(alone, whole[..., cylinder]) and np.array_equal(meas_alone, meas[..., cylinder])
+    rms = chamber_rms(exp, win, mods)
+    others = np.full(4, -1.0)
+    part = chamber_rms(exp, win, mods, np.array([2, 3]), others)
+    assert np.array_equal(part[2:], rms[2:]) and np.array_equal(part[:2], others[:2])
+    with pytest.raises(ValueError, match="replay them all"):
+        replay(exp, win, mods.copy(supply_droop_pa_per_kg_s=1e7, supply_droop_tau_s=0.1), np.array([0, 1]))

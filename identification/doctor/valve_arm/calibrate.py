@@ -49,47 +49,58 @@ LINE_VOLUME_BOUND = 3.0
 
 
 def fit_chambers(exp, win: Windows, mods: PneumaticMods | None = None, sigma: float | None = None,
-                 extra=None, wide_dead_volume=()):
+                 extra=None, wide_dead_volume=(), chambers=None):
     """Fit per-chamber area and dead-volume scales; ``extra`` = (names, x0, lo, hi, apply,
     sparsity_rows) adds effect parameters fitted jointly; the chambers ``wide_dead_volume`` may
-    grow their dead volume up to LINE_VOLUME_BOUND (a tube's volume).  Returns (mods, Fit)."""
+    grow their dead volume up to LINE_VOLUME_BOUND (a tube's volume).  ``chambers``: whole
+    cylinders' chambers (pneumatic.cylinder_chambers) whose scales alone are fitted, on their
+    own replays, the others held at ``mods``'s (where pneumatic.chambers_independent holds:
+    the others' replays do not change).  Returns (mods, Fit)."""
     C = exp.robot.tables.n_chambers
     mods = mods or PneumaticMods.nominal(C)
     sigma = sigma or pressure_sigma(exp)
     W, H = win.starts.size, win.horizon
-    names = chamber_names(exp.robot)
-    x0 = chamber_params(mods)
+    free = np.arange(C) if chambers is None else np.asarray(chambers, int)
+    n = free.size
+    at = {int(c): i for i, c in enumerate(free)}  # a free chamber's column in the replay
+    scale_index = np.concatenate([k * C + free for k in range(3)])  # into chamber_params' (3 C,)
+    all_names = chamber_names(exp.robot)
+    names = [all_names[i] for i in scale_index]
+    x_all = chamber_params(mods)
+    x0 = x_all[scale_index]
     lo = np.full(x0.size, -np.log(SCALE_BOUND))
     hi = np.full(x0.size, np.log(SCALE_BOUND))
     # a line found earlier keeps its widened dead volume in later fits
-    wide = set(wide_dead_volume) | {c for c in range(C) if x0[2 * C + c] > np.log(SCALE_BOUND)}
-    for c in wide:
-        hi[2 * C + c] = np.log(LINE_VOLUME_BOUND)
+    wide = {at[c] for c in wide_dead_volume if c in at} | {i for i in range(n) if x0[2 * n + i] > np.log(SCALE_BOUND)}
+    for i in wide:
+        hi[2 * n + i] = np.log(LINE_VOLUME_BOUND)
     n_base = x0.size
-    # residual layout (W, H, C): chamber c's residuals depend on its own three scales
-    sparsity = lil_matrix((W * H * C, n_base + (len(extra[1]) if extra else 0)), dtype=int)
-    rows_of = [np.arange(W * H) * C + c for c in range(C)]
-    for c in range(C):
+    # residual layout (W, H, n): chamber i's residuals depend on its own three scales
+    sparsity = lil_matrix((W * H * n, n_base + (len(extra[1]) if extra else 0)), dtype=int)
+    rows_of = [np.arange(W * H) * n + i for i in range(n)]
+    for i in range(n):
         for k in range(3):
-            sparsity[rows_of[c], k * C + c] = 1
+            sparsity[rows_of[i], k * n + i] = 1
     if extra:
         e_names, e_x0, e_lo, e_hi, apply, e_rows = extra
         names = names + list(e_names)
         x0 = np.concatenate([x0, e_x0])
         lo = np.concatenate([lo, e_lo])
         hi = np.concatenate([hi, e_hi])
-        for j, chambers in enumerate(e_rows):
-            for c in chambers:
-                sparsity[rows_of[c], n_base + j] = 1
+        for j, touched in enumerate(e_rows):
+            for c in touched:
+                sparsity[rows_of[at[c]], n_base + j] = 1
 
     def build(x):
-        m = with_chamber_params(mods, x[:n_base])
+        full = x_all.copy()
+        full[scale_index] = x[:n_base]
+        m = with_chamber_params(mods, full)
         if extra:
             m = extra[4](m, x[n_base:])
         return m
 
     def residual(x):
-        pred, meas = replay(exp, win, build(x))
+        pred, meas = replay(exp, win, build(x), chambers)
         return ((pred - meas) / sigma).ravel()
 
     fit = lsq.nonlinear(residual, x0, names, lo, hi, jac_sparsity=sparsity.tocsr(), max_nfev=40,

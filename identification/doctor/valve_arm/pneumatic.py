@@ -29,7 +29,7 @@ from pneumatics.valve import valve_areas
 
 from .chamber_kernel import step_batch
 from .data import FINE_DT, Experiment, fine_pressures
-from .receiver import measured_supply_flow, receiver_trajectory
+from .receiver import compressor_of, measured_supply_flow, receiver_trajectory
 from .thermal import gas_temperatures
 
 
@@ -186,9 +186,13 @@ class ChamberModel:
     """The (modified) chamber equations for a batch (W, C) of chamber sets; one 1 ms step at a
     time.  Shared by the pressure replays and the coupled replays (:mod:`replay`)."""
 
-    def __init__(self, robot, mods: PneumaticMods, batch: int):
+    def __init__(self, robot, mods: PneumaticMods, batch: int, chambers: np.ndarray | None = None):
+        """``chambers``: whole cylinders' chambers (indices, a and b of each in turn) that
+        :meth:`step` alone computes, its arrays (W, len(chambers)); only where they replay
+        independently of the others (:func:`chambers_independent`).  None: every chamber."""
         tab = robot.tables
         self.tab, self.mods, self.W = tab, mods, batch
+        self.chambers = chambers
         self.gas = tab.gas
         self.rt = self.gas.gas_constant_j_per_kg_k * self.gas.temperature_k
         self.n = self.gas.polytropic_exponent
@@ -198,7 +202,8 @@ class ChamberModel:
         self.m_supply_total = np.zeros((batch, 1))
         # heat_transfer: these chambers carry a gas temperature T (W, C) [K]; set T before stepping
         self.thermal = np.array([], int) if mods.heat_w_k is None else np.nonzero(np.isfinite(mods.heat_w_k))[0]
-        self.T = np.full((batch, tab.n_chambers), self.gas.temperature_k)
+        n_step = tab.n_chambers if chambers is None else len(chambers)
+        self.T = np.full((batch, n_step), self.gas.temperature_k)
         self.supply_shift = np.zeros(batch)  # (W,) the supply pressure's departure from the table's [Pa] (a receiver)
         self._kernel_args = self._pack_kernel()
 
@@ -213,13 +218,21 @@ class ChamberModel:
 
         glob = pack_glob(self.gas, tab.supply_pa, tab.room_pa, FINE_DT, float(mods.supply_droop_pa_per_kg_s),
                          float(mods.supply_droop_tau_s))
-        return (np.array(tab.valve, float), per(mods.supply_scale), per(mods.exhaust_scale),
+        args = (np.array(tab.valve, float), per(mods.supply_scale), per(mods.exhaust_scale),
                 per(mods.valve_leak_m2), per(mods.valve_leak_exhaust()), float(mods.valve_leak_width_v),
                 per(mods.valve_underlap_m2),
                 np.full(C, UNDERLAP_WIDTH_V) if mods.valve_underlap_width_v is None else per(mods.valve_underlap_width_v),
                 per(mods.external_leak_m2), per(mods.piston_leak_m2, C // 2),
                 per(mods.external_leak_g), per(mods.piston_leak_g, C // 2), per(self.dead), per(tab.area), np.zeros(self.W), glob,
                 np.full(C, np.nan) if mods.heat_w_k is None else per(mods.heat_w_k), per(mods.wall_compliance_m3_pa))
+        if self.chambers is None:
+            return args
+        # the kernel pairs chambers 2j, 2j + 1 as cylinder j: whole cylinders keep the pairing
+        per_cylinder = {9, 11}  # piston leak area and conductance
+        scalar = {5, 14, 15}    # leak width, the windows' supply flow, the global constants
+        cyl = self.chambers[0::2] // 2
+        return tuple(a if i in scalar else np.ascontiguousarray(a[cyl] if i in per_cylinder else a[self.chambers])
+                     for i, a in enumerate(args))
 
     def travel(self, length):
         """Chamber travel (W, C) from actuator lengths (W, n_act)."""
@@ -269,7 +282,9 @@ class ChamberModel:
         self.m_supply_total[:W, 0] = total_kg_s
 
     def step_reference(self, p, u, travel0, travel1):
-        """The numpy reference of :meth:`step`."""
+        """The numpy reference of :meth:`step` (every chamber)."""
+        if self.chambers is not None:
+            raise ValueError("step_reference steps every chamber; this model steps some of them")
         tab, mods, gas = self.tab, self.mods, self.gas
         W = p.shape[0]
         a_s, a_e = self.areas(u)
@@ -393,20 +408,41 @@ def filtered_supply_flow(exp: Experiment, model: ChamberModel, u_fine: np.ndarra
     return lfilter([a], [1.0, a - 1.0], total, zi=[(1.0 - a) * total[0]])[0]
 
 
-def replay(exp: Experiment, win: Windows, mods: PneumaticMods):
+def chambers_independent(mods: PneumaticMods) -> bool:
+    """Whether each cylinder's chambers replay independently of the others' under ``mods``:
+    no supply pressure that falls with their summed flow (supply_droop) and no compressor's
+    receiver integrated from it.  The valves, leaks, volumes, gas temperatures and sensors are
+    each chamber's own; a piston leak joins a cylinder's two chambers."""
+    return not mods.supply_droop_pa_per_kg_s > 0 and compressor_of(mods) is None
+
+
+def cylinder_chambers(chambers) -> np.ndarray:
+    """The chambers of the cylinders that ``chambers`` (indices) belong to, a and b in turn."""
+    cyl = sorted({int(c) // 2 for c in chambers})
+    return np.array([c for j in cyl for c in (2 * j, 2 * j + 1)], int)
+
+
+def replay(exp: Experiment, win: Windows, mods: PneumaticMods, chambers: np.ndarray | None = None):
     """Predicted DAQ pressures at samples starts+1 .. starts+H, with the measured ones.
 
-    Returns (predicted, measured), each (W, H, C) [Pa]."""
+    Returns (predicted, measured), each (W, H, C) [Pa].  ``chambers``: whole cylinders'
+    chambers (:func:`cylinder_chambers`) replayed alone, (W, H, len(chambers)), where
+    :func:`chambers_independent` holds: the same numbers as their columns of the whole replay
+    at a fraction of its cost on a robot of many cylinders."""
     W, H, S = win.starts.size, win.horizon, exp.n_sub
-    C = exp.robot.tables.n_chambers
-    model = ChamberModel(exp.robot, mods, W)
-    u_f = effective_commands(exp, mods)
-    travel = model.travel(drive_side_lengths(exp, mods))  # (F, C)
+    if chambers is not None and not chambers_independent(mods):
+        raise ValueError("these chambers share a supply whose pressure follows all their flows: replay them all")
+    cols = slice(None) if chambers is None else np.asarray(chambers, int)
+    C = exp.robot.tables.n_chambers if chambers is None else len(chambers)
+    model = ChamberModel(exp.robot, mods, W, None if chambers is None else cols)
+    u_all = effective_commands(exp, mods)
+    u_f = u_all[:, cols]
+    travel = model.travel(drive_side_lengths(exp, mods))[:, cols]  # (F, C)
     k0 = win.starts
-    p = initial_pressure(exp, k0, mods)
+    p = initial_pressure(exp, k0, mods)[:, cols]
     if model.thermal.size:
-        model.T = gas_temperatures(exp, mods, u_f)[k0 * S]
-    receiver = model.start_supply(exp, u_f, k0 * S)
+        model.T = np.ascontiguousarray(gas_temperatures(exp, mods, u_all)[k0 * S][:, cols])
+    receiver = model.start_supply(exp, u_all, k0 * S)
     out = np.zeros((W, H, C))
     acc = np.zeros((W, C))
     f0 = k0 * S
@@ -422,5 +458,5 @@ def replay(exp: Experiment, win: Windows, mods: PneumaticMods):
     idx = k0[:, None] + 1 + np.arange(H)[None]
     offset = mods.sensor_offsets(exp.clock_at()[idx])
     if offset is not None:
-        out = out + offset
-    return out, exp.p[idx]
+        out = out + np.broadcast_to(offset, idx.shape + (exp.robot.tables.n_chambers,))[..., cols]
+    return out, exp.p[idx][..., cols]

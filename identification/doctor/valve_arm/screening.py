@@ -16,7 +16,7 @@ from scipy.optimize import lsq_linear
 from .calibrate import fit_chambers
 from .joint_fit import fit_effect
 from .mechanics import fit_rigid_body
-from .pneumatic import replay
+from .pneumatic import chambers_independent, cylinder_chambers, replay
 
 
 def channel_gains(before: np.ndarray, after: np.ndarray) -> np.ndarray:
@@ -159,7 +159,8 @@ def fit_pneumatic(s: Scored, exp, win, mods, sigma):
     hi = np.array([p[3] for p in h.params]) / unit
     extra = (names, x0, lo, hi, lambda m, z: h.apply(m, z * unit), [h.chambers] * len(names))
     wide = h.chambers if h.adds_volume else ()
-    new_mods, fit = fit_chambers(exp, win, mods, sigma, extra=extra, wide_dead_volume=wide)
+    new_mods, fit = fit_chambers(exp, win, mods, sigma, extra=extra, wide_dead_volume=wide,
+                                 chambers=own_cylinders(h, mods, exp.robot.tables.n_chambers))
     k = len(names)
     fit.values[-k:] *= unit
     fit.stderr[-k:] *= unit
@@ -167,9 +168,32 @@ def fit_pneumatic(s: Scored, exp, win, mods, sigma):
     return s
 
 
-def chamber_rms(exp, win, mods):
-    pred, meas = replay(exp, win, mods)
-    return np.sqrt(np.mean((pred - meas) ** 2, axis=(0, 1)))
+def own_cylinders(h, mods, n_chambers: int) -> np.ndarray | None:
+    """The chambers of the cylinders hypothesis ``h`` acts on, when only they need replaying
+    and refitting beside it: ``h`` at chambers, not at the supply, and the chambers independent
+    under ``mods`` and under ``h`` (pneumatic.chambers_independent).  None: all of them (a
+    cylinder's model does not depend on another's, so refitting the others' calibration
+    beside ``h`` would only repeat the calibration; on humanoid38's 38 cylinders it cost
+    nearly half the doctor's time)."""
+    if not h.chambers or "supply" in h.where or not chambers_independent(mods):
+        return None
+    x0 = np.array([p[1] + p[4] for p in h.params])
+    if not chambers_independent(h.apply(mods, x0)):
+        return None
+    own = cylinder_chambers(h.chambers)
+    return None if own.size == n_chambers else own
+
+
+def chamber_rms(exp, win, mods, chambers=None, others=None):
+    """Per chamber (C,) the RMS error of the pressure replays.  ``chambers``: those alone are
+    replayed (pneumatic.replay), the others' RMS taken from ``others`` (C,)."""
+    pred, meas = replay(exp, win, mods, chambers)
+    rms = np.sqrt(np.mean((pred - meas) ** 2, axis=(0, 1)))
+    if chambers is None:
+        return rms
+    out = np.array(others, float)
+    out[chambers] = rms
+    return out
 
 
 def score_mechanical(td, exp, hyps, base_extra=None):
