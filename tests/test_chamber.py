@@ -96,7 +96,7 @@ def test_static_volume_pressure_stays_between_room_and_supply(u, p0, vol):
     assert np.all(p >= PR - 1e-6) and np.all(p <= PS + 1e-6)
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=15, deadline=None)  # a few seconds each: violent expansion halves the steps six times
 @given(st.lists(st.floats(0.0, 10.0), min_size=8, max_size=8),
        st.lists(st.floats(-2e-3, 2e-3), min_size=8, max_size=8),
        st.floats(0.2e5, 12e5))
@@ -117,7 +117,8 @@ def test_static_volume_converges_to_the_same_asymptote_from_both_sides():
     """From room and from supply pressure, at each command (one vectorised run of 10 chambers)."""
     commands = [0.0, 4.5, 5.0, 5.5, 10.0]
     row = np.array([[5, 5, 0.02, 0.6, 0.15, 1.3, 6e-7, 7e-7]])
-    _, p = static_transient(row, 1e-5, [PR] * 5 + [PS] * 5, commands * 2, 25.0, 1e-3, GAS, PS, PR)
+    # 5 ms steps: the integrator subdivides a step wherever a pressure moves fast
+    _, p = static_transient(row, 1e-5, [PR] * 5 + [PS] * 5, commands * 2, 25.0, 5e-3, GAS, PS, PR)
     for k, u in enumerate(commands):
         lo, hi = p[:, k], p[:, 5 + k]
         assert np.all(np.diff(lo) >= -1e-6) and np.all(np.diff(hi) <= 1e-6), u  # monotone approach
