@@ -115,6 +115,10 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             finding = line_named(run, finding)
         run.findings.append(finding)
         run.tried.add(finding.scored.hyp.label)
+        # one effect of a family at a place: its other forms there are not tried again (a
+        # dead time found, a first-order lag on top of it would be the same valve's lag twice)
+        family = {finding.family, finding.scored.hyp.family}
+        run.tried.update(s.hyp.label for s in scored if s.hyp.family in family and s.hyp.where == finding.where)
         run.mods = finding.scored.mods
     if retry_receiver and run.findings and "supply_droop@all" not in run.tried:
         search_receiver(run, say)  # with the chamber effects found meanwhile in the model
