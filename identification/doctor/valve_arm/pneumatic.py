@@ -208,31 +208,31 @@ class ChamberModel:
         self._kernel_args = self._pack_kernel()
 
     def _pack_kernel(self):
-        """Arguments of the compiled step (identification.doctor.valve_arm.chamber_kernel) for these mods."""
+        """Arguments of the compiled step (identification.doctor.valve_arm.chamber_kernel) for
+        these mods, each chamber's and cylinder's taken for the chambers it steps (the kernel
+        pairs chambers 2j, 2j + 1 as cylinder j: whole cylinders keep the pairing)."""
         tab, mods = self.tab, self.mods
         C = tab.n_chambers
+        own = slice(None) if self.chambers is None else self.chambers
+        own_cylinders = slice(None) if self.chambers is None else self.chambers[0::2] // 2
 
-        def per(arr, n=C):
+        def per(arr, fill=0.0):
             # writable copies: numba compiles read-only arrays (a broadcast view) as another type
-            return np.zeros(n) if arr is None else np.array(np.broadcast_to(arr, (n,)), float)
+            full = np.full(C, fill) if arr is None else np.array(np.broadcast_to(arr, (C,)), float)
+            return np.ascontiguousarray(full[own])
+
+        def per_cylinder(arr):
+            full = np.zeros(C // 2) if arr is None else np.array(np.broadcast_to(arr, (C // 2,)), float)
+            return np.ascontiguousarray(full[own_cylinders])
 
         glob = pack_glob(self.gas, tab.supply_pa, tab.room_pa, FINE_DT, float(mods.supply_droop_pa_per_kg_s),
                          float(mods.supply_droop_tau_s))
-        args = (np.array(tab.valve, float), per(mods.supply_scale), per(mods.exhaust_scale),
+        return (np.ascontiguousarray(np.array(tab.valve, float)[own]), per(mods.supply_scale), per(mods.exhaust_scale),
                 per(mods.valve_leak_m2), per(mods.valve_leak_exhaust()), float(mods.valve_leak_width_v),
-                per(mods.valve_underlap_m2),
-                np.full(C, UNDERLAP_WIDTH_V) if mods.valve_underlap_width_v is None else per(mods.valve_underlap_width_v),
-                per(mods.external_leak_m2), per(mods.piston_leak_m2, C // 2),
-                per(mods.external_leak_g), per(mods.piston_leak_g, C // 2), per(self.dead), per(tab.area), np.zeros(self.W), glob,
-                np.full(C, np.nan) if mods.heat_w_k is None else per(mods.heat_w_k), per(mods.wall_compliance_m3_pa))
-        if self.chambers is None:
-            return args
-        # the kernel pairs chambers 2j, 2j + 1 as cylinder j: whole cylinders keep the pairing
-        per_cylinder = {9, 11}  # piston leak area and conductance
-        scalar = {5, 14, 15}    # leak width, the windows' supply flow, the global constants
-        cyl = self.chambers[0::2] // 2
-        return tuple(a if i in scalar else np.ascontiguousarray(a[cyl] if i in per_cylinder else a[self.chambers])
-                     for i, a in enumerate(args))
+                per(mods.valve_underlap_m2), per(mods.valve_underlap_width_v, UNDERLAP_WIDTH_V),
+                per(mods.external_leak_m2), per_cylinder(mods.piston_leak_m2),
+                per(mods.external_leak_g), per_cylinder(mods.piston_leak_g), per(self.dead), per(tab.area),
+                np.zeros(self.W), glob, per(mods.heat_w_k, np.nan), per(mods.wall_compliance_m3_pa))
 
     def travel(self, length):
         """Chamber travel (W, C) from actuator lengths (W, n_act)."""
