@@ -36,6 +36,7 @@ class Scored:
     heldout_null: np.ndarray = None     # held-out RMS of the fitted model with the effect switched off
     rank_gain: float | None = None      # held-out gain over the chambers of all candidates compared with it
     judged_by: str = "held-out data"    # or the training data's cross-validation (regime not held out)
+    refitted: np.ndarray | None = None  # the chambers whose calibration its fit refitted (None: all)
 
     @property
     def own_gain(self) -> float | None:
@@ -159,8 +160,8 @@ def fit_pneumatic(s: Scored, exp, win, mods, sigma):
     hi = np.array([p[3] for p in h.params]) / unit
     extra = (names, x0, lo, hi, lambda m, z: h.apply(m, z * unit), [h.chambers] * len(names))
     wide = h.chambers if h.adds_volume else ()
-    new_mods, fit = fit_chambers(exp, win, mods, sigma, extra=extra, wide_dead_volume=wide,
-                                 chambers=own_cylinders(h, mods, exp.robot.tables.n_chambers))
+    s.refitted = own_cylinders(h, mods, exp.robot.tables.n_chambers)
+    new_mods, fit = fit_chambers(exp, win, mods, sigma, extra=extra, wide_dead_volume=wide, chambers=s.refitted)
     k = len(names)
     fit.values[-k:] *= unit
     fit.stderr[-k:] *= unit

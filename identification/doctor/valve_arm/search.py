@@ -46,7 +46,6 @@ from .screening import (
     dead_volume_index,
     finding_params,
     fit_pneumatic,
-    own_cylinders,
     score_mechanical,
     score_pneumatic,
     stack_terms,
@@ -77,7 +76,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             say(f"fitting {s.hyp.label}")
             fit_pneumatic(s, exp, run.fit_win, run.mods, run.sigma)
             # where the fit refitted its own cylinders alone, the others replay as before
-            own = own_cylinders(s.hyp, run.mods, run.robot.tables.n_chambers)
+            own = s.refitted
             s.heldout_before, s.heldout_after = base_h, chamber_rms(held, win_h, s.mods, own, base_h)
             s.heldout_null = chamber_rms(held, win_h, s.hyp.switched_off(s.mods), own, base_h)
         note_supply_candidates(run, top)
