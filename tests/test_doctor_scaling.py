@@ -7,6 +7,7 @@ import numpy as np
 from identification.doctor.valve_arm.calibrate import pressure_sigma
 from identification.doctor.valve_arm.data import prepare
 from identification.doctor.valve_arm.hypotheses import pneumatic_hypotheses
+from identification.doctor.valve_arm.joint_fit import folds_at_joint, two_fold_rss_at
 from identification.doctor.valve_arm.pneumatic import PneumaticMods, Windows
 from identification.doctor.valve_arm.screening import probe_groups, score_pneumatic
 from pneumatics.recording import read_csv
@@ -136,6 +137,7 @@ def test_end_stop_grid_two_fold_rss_equals_whole_fits():
     fit_rigid_body(td)
     folds = H._stop_folds(td)
     for j in range(2):
+        at_j = folds_at_joint(td, j, folds)
         for stop in (-0.4, 0.0, 0.4):
             reg = td.mask(H._stop_regs(exp, j, stop, 1))
             whole = 0.0
@@ -143,7 +145,7 @@ def test_end_stop_grid_two_fold_rss_equals_whole_fits():
                 f = fit_rigid_body(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)))
                 A = np.concatenate([td.regressors[test_on.valid], reg[test_on.valid]], axis=2)
                 whole += float(np.sum((td.residual[test_on.valid] - np.einsum("njp,p->nj", A, f.values)) ** 2))
-            assert abs(H._two_fold_rss(td, reg, folds) - whole) <= 1e-8 * whole
+            assert abs(two_fold_rss_at(j, reg, H.STOP_BOUNDS, at_j, td.valid) - whole) <= 1e-8 * whole
 
 
 def test_a_stop_one_folds_blocks_never_touch_leaves_that_fold_at_the_base():
@@ -161,7 +163,7 @@ def test_a_stop_one_folds_blocks_never_touch_leaves_that_fold_at_the_base():
     first, _ = td.two_fold()[0]
     reg = td.mask(H._stop_regs(exp, 0, 0.0, 1))
     reg[first.valid] = 0.0          # contact only in the second fold's blocks
-    rss = H._two_fold_rss(td, reg, folds)
+    rss = two_fold_rss_at(0, reg, H.STOP_BOUNDS, folds_at_joint(td, 0, folds), td.valid)
     (_, _, _, base_res_first_test), (fit_on, test_on, _, _) = folds
     f = fit_rigid_body(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)))
     A = np.concatenate([td.regressors[test_on.valid], reg[test_on.valid]], axis=2)

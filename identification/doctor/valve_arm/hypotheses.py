@@ -22,6 +22,8 @@ from pneumatics.effects.pressure_sensor_offset import offset_at
 from pneumatics.effects.registry import get_family
 
 from .calibrate import SCALE_BOUND
+from .joint_fit import folds_at_joint, two_fold_rss_at
+from .mechanics import fit_rigid_body
 
 __all__ = ["Hypothesis", "end_stop_hypotheses", "mechanical_hypotheses", "penetration", "pneumatic_hypotheses",
            "smooth_torque_yardstick"]
@@ -236,40 +238,14 @@ def angle_profile_yardstick(robot, j: int, exp) -> Hypothesis:
                       [(n, 0.0, -np.inf, np.inf, 0.0) for n in names], joint=j, regressor=reg, state_torque=torque)
 
 
-def _two_fold_rss(td, reg, folds: list):
-    """Residual sum of squares of the torque balance with extra regressors ``reg``, each half of
-    the training samples predicted by a fit to the other half: a stop placed where only a few
-    impacts happen to fit well does not generalise, and this says so before held-out data do.
-    ``folds`` (:func:`_stop_folds`) hold each half's base fit: a stop acts at its own joint, so
-    its fit changes that joint's part alone (joint_fit) and the other joints' test residuals
-    stay the base's."""
-    from .joint_fit import fit_effect, reaches_fold
-
-    P = len(td.names)
-    total = 0.0
-    size = np.max(np.abs(reg[td.valid]), initial=0.0)
-    for fit_on, test_on, base, base_res in folds:
-        if not reaches_fold(reg, fit_on.valid, td.valid, size):
-            total += float(np.sum(base_res ** 2))  # no contact in this fold: it cannot predict the stop
-            continue
-        f = fit_effect(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)), base, 0, stderr=False)
-        test = test_on.valid
-        # the fit moves few of the base's columns (the stop's joint's block): the test residual
-        # is the base's less those changes and the stop's own torque, without the whole
-        # (N, J, P) regressor array (on humanoid38 the copy cost more than the fit)
-        d = f.values[:P] - base.values
-        cols = np.flatnonzero(d)
-        res = (base_res - np.einsum("njp,p->nj", td.regressors[:, :, cols][test], d[cols])
-               - np.einsum("nje,e->nj", reg[test], f.values[P:]))
-        total += float(np.sum(res ** 2))
-    return total
+#: the bounds of an end stop's stiffness and damping while its place is chosen (the fit proper
+#: bounds the stiffness below by END_STOP_MIN_STIFFNESS_NM_PER_RAD)
+STOP_BOUNDS = (np.zeros(2), np.full(2, np.inf))
 
 
 def _stop_folds(td) -> list:
     """[(fit on, test on, the base fit on the first, its residual (M, J) on the second's valid
-    samples)] of the two-fold split, computed once for every stop on the grid."""
-    from .mechanics import fit_rigid_body
-
+    samples)] of the two-fold split, computed once for every stop on the grid (joint_fit.folds_at_joint)."""
     out = []
     for fit_on, test_on in td.two_fold():
         base = fit_rigid_body(fit_on)
@@ -304,12 +280,11 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
     the angles the training data visited, out to its last few samples (profile least squares; its stderr from the profile's
     Delta chi^2 = 1 interval).  The bumper's torque is evaluated as the family defines it for
     the torque balance (end_stop: on the barely smoothed angle, smoothed as the equation error)."""
-    from .mechanics import fit_rigid_body
-
     base = fit_rigid_body(td)
     folds = _stop_folds(td)
     out = []
     for j, name in enumerate(robot.joint_names):
+        at_j = folds_at_joint(td, j, folds)
         qv = exp.q_s[td.valid, j]
         for side in (1, -1):
             # from the 85 % quantile out to the last few samples, evenly in the log of the
@@ -317,7 +292,11 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
             # bumper by a few milliradians, so the stops that matter are packed near the end
             outward = np.sort(side * qv)[::-1] * side
             qs = outward[np.unique(np.geomspace(3, 0.15 * qv.size, n_grid).astype(int))][::-1]
-            rss = np.array([_two_fold_rss(td, td.mask(_stop_regs(exp, j, stop, side, td)), folds) for stop in qs])
+            # each half of the training samples predicted by a fit to the other half: a stop
+            # placed where only a few impacts happen to fit well does not generalise, and this
+            # says so before held-out data do
+            rss = np.array([two_fold_rss_at(j, td.mask(_stop_regs(exp, j, stop, side, td)), STOP_BOUNDS, at_j, td.valid)
+                            for stop in qs])
             k = int(np.argmin(rss))
             sigma2 = rss[k] / max(base.n - len(base.values) - 2, 1)  # (unscaled torque units)
             inside = qs[(rss - rss[k]) / sigma2 <= 1.0]
@@ -359,8 +338,6 @@ def drift_hypotheses(robot, exp, td) -> list[Hypothesis]:
     the chosen one when the hypothesis is scored).  Not the end stops' two-fold residual: its
     halves are the recording's first and second half, and a drift fitted on one half is
     extrapolated in time to the other."""
-    from .mechanics import fit_rigid_body
-
     v = td.valid
     base = fit_rigid_body(td)
     residual = td.residual[v] - np.einsum("njp,p->nj", td.regressors[v], base.values)   # (M, J)
