@@ -41,7 +41,7 @@ RESUMABLE = True
 
 def plan(fast: bool):
     if fast:
-        return [(101, []), (102, ["coulomb_friction"]), (103, ["valve_hysteresis"])], 30.0, 15.0
+        return [(101, []), (102, ["coulomb_friction"]), (103, ["valve_hysteresis"])], 20.0, 10.0
     cases = []
     seed = 1000
     for fam in BENCHMARK_FAMILIES:

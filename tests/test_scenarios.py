@@ -85,7 +85,7 @@ def test_unknown_scenario_is_one_clear_line():
 
 
 def test_doctor_blind_benchmark_fast(out, monkeypatch):
-    """Three fresh cases (null, Coulomb friction, valve hysteresis), 30 s + 15 s each; in this
+    """Three fresh cases (null, Coulomb friction, valve hysteresis), 20 s + 10 s each; in this
     process (inline), which has compiled the simulation loop already (a worker would again)."""
     monkeypatch.setenv("PNEUMASIM_BACKEND", "inline")
     m = run("doctor_blind_benchmark", out)
