@@ -93,17 +93,26 @@ class EndStop(Family):
         if not isinstance(params, SpringDamper):
             raise NotOnThisSide(f"{self.name}: the torque balance takes the spring_damper form (stop_rad, side_sign, "
                                 f"stiffness_nm_per_rad, damping_nm_s_per_rad), got {type(params).__name__}")
+        units = self.torque_balance_units(exp, td, joint, np.array([params.stop_rad]), params.side_sign)[:, 0]
+        tau = units @ np.array([params.stiffness_nm_per_rad, params.damping_nm_s_per_rad])
+        return joint_column(tau.size, exp.qd.shape[1], joint, tau)
+
+    def torque_balance_units(self, exp, td, joint, stops, side_sign) -> np.ndarray:
+        """(N, S, 2) the equation-error terms per unit stiffness and per unit damping of
+        bumpers at each of ``stops`` [rad] on side ``side_sign``, at ``joint``: the doctor
+        places a stop on a grid of them, smoothed in one pass."""
         # the bumper's torque is sharp in the angle: evaluated on the barely smoothed angle and
         # smoothed as the equation error is (Experiment.like_q_s), not on the smoothed angle
-        q, qd = exp.q_light[:, joint], exp.qd_light[:, joint]
-        tau = stop_torque(q, qd, params.stop_rad, params.side_sign, params.stiffness_nm_per_rad,
-                          params.damping_nm_s_per_rad)
+        q, qd = exp.q_light[:, joint, None], exp.qd_light[:, joint, None]
+        stops = np.asarray(stops, float)[None, :]
+        tau = np.stack([stop_torque(q, qd, stops, side_sign, 1.0, 0.0), stop_torque(q, qd, stops, side_sign, 0.0, 1.0)],
+                       axis=2)
         if td is not None and td.joint_ok is not None:
             # where the torque balance leaves the joint out (near the model's own limit, whose
             # force MuJoCo's inverse dynamics holds) a bumper cannot be judged: its torque
             # there, filtered, would fit the limit impact's spread into the samples kept
-            tau = np.where(td.joint_ok[:, joint], tau, 0.0)
-        return joint_column(q.size, exp.qd.shape[1], joint, -exp.like_q_s(tau, joint))
+            tau = np.where(td.joint_ok[:, joint, None, None], tau, 0.0)
+        return -exp.like_q_s(tau.reshape(q.size, -1), joint).reshape(tau.shape)
 
     def scaled(self, params, k):
         """The bumper moved out towards the reference margin by k (halving the intrusion itself

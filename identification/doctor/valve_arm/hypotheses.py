@@ -295,8 +295,12 @@ def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
             # each half of the training samples predicted by a fit to the other half: a stop
             # placed where only a few impacts happen to fit well does not generalise, and this
             # says so before held-out data do
-            rss = np.array([two_fold_rss_at(j, td.mask(_stop_regs(exp, j, stop, side, td)), STOP_BOUNDS, at_j, td.valid)
-                            for stop in qs])
+            units = get_family("end_stop").torque_balance_units(exp, td, j, qs, side)  # (N, S, 2), as _stop_regs
+            reg = np.zeros(exp.qd.shape + (2,))
+            rss = np.empty(qs.size)
+            for i in range(qs.size):
+                reg[:, j] = units[:, i]
+                rss[i] = two_fold_rss_at(j, td.mask(reg), STOP_BOUNDS, at_j, td.valid)
             k = int(np.argmin(rss))
             sigma2 = rss[k] / max(base.n - len(base.values) - 2, 1)  # (unscaled torque units)
             inside = qs[(rss - rss[k]) / sigma2 <= 1.0]
