@@ -101,13 +101,14 @@ def test_static_volume_pressure_stays_between_room_and_supply(u, p0, vol):
        st.lists(st.floats(-2e-3, 2e-3), min_size=8, max_size=8),
        st.floats(0.2e5, 12e5))
 def test_random_commands_and_motions_keep_pressures_positive_and_finite(us, vrates, p0):
-    """Even violent expansion of the smallest volume (2e-3 m^3/s into 0.5 cm^3) stays positive."""
+    """Even violent expansion of the smallest volume (2e-3 m^3/s into 0.5 cm^3: 80-fold in the
+    20 ms run) stays positive."""
     u = np.array(us)
     rows = np.tile([5, 5, 0.02, 0.6, 0.15, 1.3, 2e-6, 2e-6], (8, 1))
     a_s, a_e = valve_areas(u, rows)
     p = np.full(8, p0)
     vol = np.full(8, 5e-7) + 1e-5 * np.arange(8)
-    for _ in range(50):
+    for _ in range(20):
         p = integrate(p, vol, np.array(vrates), a_s, a_e, GAS, PS, PR, 1e-3)
         vol = np.maximum(vol + np.array(vrates) * 1e-3, 5e-7)
         assert np.all(np.isfinite(p)) and np.all(p > 0)

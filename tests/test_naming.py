@@ -60,7 +60,8 @@ def test_the_doctor_names_a_valve_dead_time_and_hands_back_the_model_it_proved(t
     from pneumatics.robot import load_robot
     from scenarios._variantsim.cases import make_case
 
-    truth = make_case(tmp_path, 263004997, ["valve_lag"], forms=["dead_time"], name="dead")
+    truth = make_case(tmp_path, 263004997, ["valve_lag"], forms=["dead_time"], seconds=30.0, heldout_seconds=15.0,
+                      name="dead")
     where = truth["effects"][0]["where"]
     held = [read_csv(tmp_path / "dead_heldout.csv")]
     report = diagnose(load_robot("arm2"), [read_csv(tmp_path / "dead.csv")], held)
