@@ -59,7 +59,7 @@ def test_the_doctors_path_follows_the_simulators_receiver():
 @pytest.fixture(scope="module")
 def compressor_case(tmp_path_factory):
     """pneumasim's own arm2 (nominal parameters) tracking under PIDF, its supply a 1 L receiver
-    refilled at 0.4 g/s between 6.7 and 7 bar: 40 s + 20 s held out."""
+    refilled at 0.4 g/s between 6.7 and 7 bar (a cycle of about 5 s): 30 s + 15 s held out."""
     from pneumatics.effects.effect_set import EffectSet
     from pneumatics.robot import load_robot
     from scenarios._cases import _record, _write
@@ -69,7 +69,7 @@ def compressor_case(tmp_path_factory):
                                                       "band_pa": 3e4, "cut_out_pa": 7e5, "leak_kg_s_pa": 3e-11},
                               form="compressor_cycling")
     out = tmp_path_factory.mktemp("compressor")
-    return _write(out, "compressor", _record(robot, effects, 5, 40.0, 20.0))
+    return _write(out, "compressor", _record(robot, effects, 5, 30.0, 15.0))
 
 
 def test_the_doctor_names_a_cycling_compressor(compressor_case):

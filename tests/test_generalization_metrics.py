@@ -163,6 +163,7 @@ def _generator_draws_outside() -> bool:
 
 
 @pytest.mark.skipif(not _generator_draws_outside(), reason="the variant generator does not draw outside_vocabulary yet")
+@pytest.mark.heavy
 def test_generalization_benchmark_fast(tmp_path, monkeypatch):
     """The --fast benchmark (null, Coulomb friction, pressure sensor offset, supply droop +
     valve hysteresis, an outside-vocabulary effect; 20 s + 10 s each) in this process: every
