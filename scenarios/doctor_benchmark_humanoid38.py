@@ -191,7 +191,8 @@ def plot_doctor_time(ctx, rows: list[dict], arm2: dict, parts: list[dict], secon
 
     fig, ax = plt.subplots(figsize=(6, 4.5))
     hum = [r["seconds"] for r in rows]
-    ax.scatter([HUMANOID_CHAMBERS] * len(hum), hum, label=f"humanoid38 ({len(hum)} cases)", color="C0")
+    cases = f"{len(hum)} case" + ("" if len(hum) == 1 else "s")
+    ax.scatter([HUMANOID_CHAMBERS] * len(hum), hum, label=f"humanoid38 ({cases})", color="C0")
     ax.scatter([ARM2_CHAMBERS], [arm2["seconds"]], label="arm2 (a null case)", color="C1")
     for p in parts:
         ax.scatter([p["chambers"]], [p["seconds"]], color="C2", marker="s")
