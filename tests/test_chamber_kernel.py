@@ -86,13 +86,43 @@ def experiment():
                                     "heat_transfer_with_leaks",
                                     "laminar_leaks", "wall_compliance"])
 def test_compiled_replay_matches_the_numpy_replay(experiment, effect, monkeypatch):
-    """A whole pressure replay (1 s windows over 4 s of a published recording) through the compiled step
-    equals the numpy reference's to 1e-9 relative."""
+    """A whole pressure replay (1 s windows over 4 s of a published recording) through the compiled loop
+    and step equals the numpy reference's (a Python loop of numpy steps) to 1e-9 relative."""
     win = Windows.tile(experiment.t.size, 100, stride=50)
     fast, meas = replay(experiment, win, _mods(effect))
     monkeypatch.setattr(ChamberModel, "step", ChamberModel.step_reference)
+    monkeypatch.setattr(ChamberModel, "run_windows", ChamberModel.run_windows_reference)
     slow, meas2 = replay(experiment, win, _mods(effect))
     np.testing.assert_array_equal(meas, meas2)
     np.testing.assert_allclose(fast, slow, rtol=1e-9)
     if effect == "nominal":  # and it replays the recording (made without effects) [Pa]
         assert np.sqrt(np.mean((fast - meas) ** 2)) < 2e4
+
+
+@pytest.mark.parametrize("effect", ["nominal", "valve_underlap", "supply_reservoir", "heat_transfer_with_leaks",
+                                    "receiver"])
+@pytest.mark.parametrize("averaged", [True, False])
+def test_the_compiled_loop_over_the_fine_steps_is_its_python_loop_to_the_bit(effect, averaged):
+    """ChamberModel.run_windows (chamber_kernel.replay_batch) against run_windows_reference, the
+    Python loop of compiled steps it replaces: the same pressures, gas temperatures and supply
+    flows to the bit, a receiver's supply path followed step by step included."""
+    rng = np.random.default_rng(7)
+    tab = ROBOT.tables
+    F, H, S = 3000, 40, 10
+    u = rng.uniform(3.0, 7.0, (F, C))
+    travel = np.clip(0.035 + np.cumsum(rng.normal(0.0, 2e-5, (F, C)), axis=0), 0.0, 0.07)
+    first = np.array([0, 700, 1500, 2550])
+    p0 = rng.uniform(tab.room_pa, tab.supply_pa, (first.size, C))
+    receiver = tab.supply_pa - 2e4 * (1 + np.sin(np.arange(F) * 2e-3)) if effect == "receiver" else None
+    mods = _mods("nominal" if effect == "receiver" else effect)
+    models = [ChamberModel(ROBOT, mods, first.size) for _ in range(2)]
+    for m in models:
+        m.T = np.full((first.size, C), 300.0)
+        m.set_supply_flow(np.full(first.size, 2e-4))
+    fast = models[0].run_windows(p0, u, travel, first, H, S, averaged, receiver)
+    slow = models[1].run_windows_reference(p0, u, travel, first, H, S, averaged, receiver)
+    np.testing.assert_array_equal(fast, slow)
+    np.testing.assert_array_equal(models[0].T, models[1].T)
+    np.testing.assert_array_equal(models[0]._kernel_args[14], models[1]._kernel_args[14])
+    np.testing.assert_array_equal(models[0].supply_shift, models[1].supply_shift)
+    assert np.all(np.isfinite(fast)) and np.ptp(fast) > 1e3

@@ -192,3 +192,43 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
                 mab += piston_leak_g[j] * (pa - pb) * (pa + pb) / (2.0 * room)
             extra += -mab if c == 2 * j else mab
             out[w, c], T[w, c] = _thermal(p[w, c], T[w, c], vol[c], vdot[c], a_s[c], a_e[c], ps, heat_w_k[c], extra, glob)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def replay_batch(p, u_fine, travel, first, horizon, n_sub, averaged, receiver, supply_pa, rows, supply_scale,
+                 exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2, leak_width_v, underlap_m2, underlap_width_v,
+                 external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, dead_m3, area_m2, m_supply, glob,
+                 heat_w_k, T, wall, supply_shift, out):
+    """pneumatic.replay's loop over the fine steps, compiled: every window w starts at fine step
+    ``first[w]`` from pressures ``p`` (W, C) and is stepped by :func:`step_batch` ``horizon`` x
+    ``n_sub`` times with its commands ``u_fine`` (F, C) and travels ``travel`` (F, C); ``out``
+    (W, horizon, C) gets each sample's pressure (the mean of its ``n_sub`` steps when
+    ``averaged``).  A non-empty ``receiver`` (F,) [Pa] is the supply's path, read every step
+    (ChamberModel.follow_supply).  The same arithmetic as the Python loop it replaces, step by
+    step (tests/test_chamber_kernel.py), without its ~20 us of numpy calls a step."""
+    W, C = p.shape
+    last = travel.shape[0] - 1
+    u, t0, t1 = np.empty((W, C)), np.empty((W, C)), np.empty((W, C))
+    nxt, acc = np.empty((W, C)), np.zeros((W, C))
+    for step in range(horizon * n_sub):
+        for w in range(W):
+            f = first[w] + step
+            g = min(f + 1, last)
+            for c in range(C):
+                u[w, c] = u_fine[f, c]
+                t0[w, c] = travel[f, c]
+                t1[w, c] = travel[g, c]
+            if receiver.size:
+                supply_shift[w] = receiver[min(f, receiver.size - 1)] - supply_pa
+        step_batch(p, u, t0, t1, rows, supply_scale, exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2,
+                   leak_width_v, underlap_m2, underlap_width_v, external_leak_m2, piston_leak_m2, external_leak_g,
+                   piston_leak_g, dead_m3, area_m2, m_supply, glob, nxt, heat_w_k, T, wall, supply_shift)
+        p, nxt = nxt, p
+        acc += p
+        if (step + 1) % n_sub == 0:
+            k = (step + 1) // n_sub - 1
+            if averaged:
+                out[:, k] = acc / n_sub
+            else:
+                out[:, k] = p
+            acc[:] = 0.0

@@ -27,7 +27,7 @@ from pneumatics.kernel import pack_glob
 from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
 
-from .chamber_kernel import step_batch
+from .chamber_kernel import replay_batch, step_batch
 from .data import FINE_DT, Experiment, fine_pressures
 from .receiver import compressor_of, measured_supply_flow, receiver_trajectory
 from .thermal import gas_temperatures
@@ -256,6 +256,40 @@ class ChamberModel:
         self.T[:W] = T
         return out
 
+    def run_windows(self, p, u_fine, travel, first, horizon: int, n_sub: int, averaged: bool, receiver):
+        """(W, horizon, C) the pressures [Pa] of windows starting at fine steps ``first`` (W,)
+        from ``p`` (W, C), ``n_sub`` fine steps a sample (each sample the mean of its steps when
+        ``averaged``), commands ``u_fine`` and travels ``travel`` (F, C) on the fine grid, the
+        supply following ``receiver`` (F,) [Pa] if not None.  Compiled
+        (chamber_kernel.replay_batch); :meth:`run_windows_reference` is its Python twin."""
+        rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area, m_sup, glob, heat, wall = self._kernel_args
+        W, C = p.shape
+        out = np.zeros((W, horizon, C))
+        T = np.ascontiguousarray(self.T[:W], float)
+        path = np.zeros(0) if receiver is None else np.ascontiguousarray(receiver, float)
+        replay_batch(np.array(p, float), np.ascontiguousarray(u_fine, float), np.ascontiguousarray(travel, float),
+                     np.ascontiguousarray(first, np.int64), int(horizon), int(n_sub), bool(averaged), path,
+                     float(self.tab.supply_pa), rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area,
+                     m_sup[:W], glob, heat, T, wall, self.supply_shift[:W], out)
+        self.T[:W] = T
+        return out
+
+    def run_windows_reference(self, p, u_fine, travel, first, horizon: int, n_sub: int, averaged: bool, receiver):
+        """:meth:`run_windows` as a Python loop over the fine steps, each one :meth:`step`."""
+        W, C = p.shape
+        out = np.zeros((W, horizon, C))
+        acc = np.zeros((W, C))
+        last = travel.shape[0] - 1
+        for step in range(horizon * n_sub):
+            f = first + step
+            self.follow_supply(receiver, f)
+            p = self.step(p, u_fine[f], travel[f], travel[np.minimum(f + 1, last)])
+            acc += p
+            if (step + 1) % n_sub == 0:
+                out[:, (step + 1) // n_sub - 1] = acc / n_sub if averaged else p
+                acc[:] = 0
+        return out
+
     def areas(self, u):
         """(supply, exhaust) valve areas (W, C) [m^2] at commands u (W, C) [V]: :func:`model_areas`."""
         return model_areas(self.tab, self.mods, u)
@@ -433,7 +467,6 @@ def replay(exp: Experiment, win: Windows, mods: PneumaticMods, chambers: np.ndar
     if chambers is not None and not chambers_independent(mods):
         raise ValueError("these chambers share a supply whose pressure follows all their flows: replay them all")
     cols = slice(None) if chambers is None else np.asarray(chambers, int)
-    C = exp.robot.tables.n_chambers if chambers is None else len(chambers)
     model = ChamberModel(exp.robot, mods, W, None if chambers is None else cols)
     u_all = effective_commands(exp, mods)
     u_f = u_all[:, cols]
@@ -443,18 +476,7 @@ def replay(exp: Experiment, win: Windows, mods: PneumaticMods, chambers: np.ndar
     if model.thermal.size:
         model.T = np.ascontiguousarray(gas_temperatures(exp, mods, u_all)[k0 * S][:, cols])
     receiver = model.start_supply(exp, u_all, k0 * S)
-    out = np.zeros((W, H, C))
-    acc = np.zeros((W, C))
-    f0 = k0 * S
-    last = travel.shape[0] - 1
-    for step in range(H * S):
-        f = f0 + step
-        model.follow_supply(receiver, f)
-        p = model.step(p, u_f[f], travel[f], travel[np.minimum(f + 1, last)])
-        acc += p
-        if (step + 1) % S == 0:
-            out[:, (step + 1) // S - 1] = acc / S if exp.averaged else p
-            acc[:] = 0
+    out = model.run_windows(p, u_f, travel, k0 * S, H, S, exp.averaged, receiver)
     idx = k0[:, None] + 1 + np.arange(H)[None]
     offset = mods.sensor_offsets(exp.clock_at()[idx])
     if offset is not None:
