@@ -97,7 +97,7 @@ def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, 
          / scale[None, :, None]).reshape(-1, P + E)                                 # (M S, P + E)
     y = (y_all[:, joints] / scale).ravel()
     held = np.concatenate([cal.values, np.zeros(E)])
-    free = np.array([k >= P or (n.startswith("damping_scale.") and n not in td.fixed) for k, n in enumerate(names)])
+    free = np.concatenate([td.refitted_beside_effects(), np.ones(E, bool)])
     # the free columns acting at these joints (a kept term's rounding there does not count: it
     # stays at its base value), and the effect's own even where they are zero: least squares
     # leaves a column without data at a start of its own choosing, as the whole fit does
@@ -151,7 +151,7 @@ def folds_at_joint(td: TorqueData, j: int, folds: list) -> list[FoldAtJoint]:
     on the second's valid samples)`` for effects acting at joint ``j`` alone (fit_at_joints'
     problem with ``joints = [j]`` and no kept terms)."""
     cal = td.calibration
-    free = np.array([n.startswith("damping_scale.") and n not in td.fixed for n in td.names])
+    free = td.refitted_beside_effects()
     out = []
     for fit_on, test_on, base, base_res in folds:
         v = fit_on.valid

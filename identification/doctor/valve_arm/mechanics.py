@@ -88,6 +88,13 @@ class TorqueData:
     def residual(self) -> np.ndarray:
         return self.tau_act - self.tau_inv
 
+    def refitted_beside_effects(self) -> np.ndarray:
+        """(P,) which calibration columns an effect's fit refits beside it: the joints' damping
+        not kept nominal (an effect such as friction may have taken it up); the inertias stay
+        at the calibration (fit_rigid_body)."""
+        fixed = self.fixed or {}
+        return np.array([n.startswith("damping_scale.") and n not in fixed for n in self.names], bool)
+
     def decimate(self, x: np.ndarray) -> np.ndarray:
         """x (N, ...) low-passed like the torque (zero phase, per pooled recording) and taken at
         every D-th valid sample away from the filter's reach of an invalid one: (M, ...)."""
@@ -332,8 +339,7 @@ def fit_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_names=
         elo, ehi = extra_bounds if extra_bounds is not None else (np.full(n_e, -np.inf), np.full(n_e, np.inf))
         lo, hi = np.concatenate([lo, elo]), np.concatenate([hi, ehi])
     held = np.concatenate([cal.values, np.zeros(n_e)])
-    free = np.array([k >= len(td.names) or (n.startswith("damping_scale.") and n not in td.fixed)
-                     for k, n in enumerate(names)])
+    free = np.concatenate([td.refitted_beside_effects(), np.ones(n_e, bool)])
     A2, y2, _ = _scaled(A, td.residual[v])
     return _bounded_fit(A2, y2, names, lo, hi, free, held)
 
