@@ -87,7 +87,8 @@ def test_a_clean_recording_of_all_76_chambers_gets_no_finding():
     +-3 % parameter errors and sensor noise alone give no finding and no ``unexplained`` entry."""
     from scenarios.doctor_benchmark_humanoid38 import FAST_HELDOUT_SECONDS, FAST_SECONDS, humanoid_case
 
-    row = humanoid_case({"seed": 701, "families": [], "seconds": FAST_SECONDS, "heldout_seconds": FAST_HELDOUT_SECONDS})
+    row = humanoid_case({"seed": 701, "families": [], "seconds": FAST_SECONDS,
+                         "heldout_seconds": FAST_HELDOUT_SECONDS})
     assert row["findings"] == [] and row["unexplained"] == []
 
 
