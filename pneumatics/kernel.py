@@ -11,8 +11,9 @@ Table layouts (from :meth:`pneumatics.tables.FluidTables.packed`):
   ch   (n_ch, 14): area, dead volume, is_a, actuator index, 8 valve columns,
                    leak area to the room [m^2] (effect external_leak, 0 = none),
                    its laminar form's conductance [kg/(s Pa)] (0 = none)
-  fric (n_f, 5):   dof address, Coulomb [N m], extra breakaway [N m], Stribeck velocity
-                   [rad/s], viscous [N m s/rad] (effects coulomb_friction, stiction, viscous_friction)
+  fric (n_f, 7):   dof address, Coulomb [N m], extra breakaway [N m], Stribeck velocity
+                   [rad/s], viscous [N m s/rad], velocity-power coefficient [N m (s/rad)^n] and
+                   exponent n (effects coulomb_friction, stiction, viscous_friction)
   glob (21 + flow_polynomial.SIZE,): R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply,
                    room, dt, slope of the linearised flow near r = 1, supply droop
                    [Pa/(kg/s)] (effect supply_droop, 0 = none), supply pressure in effect
@@ -221,12 +222,15 @@ def _whole_steps(p, volume, volume_rate, a_s, a_e, m_extra, glob, whole, accepte
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def write_friction(qvel, qfrc_applied, fric):
-    """qfrc_applied[dof] = friction torque at qvel (pneumatics.effects.friction)."""
+    """qfrc_applied[dof] = friction torque at qvel (pneumatics.effects.friction.friction_torque,
+    its reference; the power term continued linearly below 0.01 rad/s as there)."""
     for k in range(fric.shape[0]):
         dof = int(fric[k, 0])
         v = qvel[dof]
         s = math.tanh(v / 0.01)
-        qfrc_applied[dof] = -(fric[k, 1] * s + fric[k, 2] * math.exp(-(v / fric[k, 3]) ** 2) * s + fric[k, 4] * v)
+        power = v * max(abs(v), 0.01) ** (fric[k, 6] - 1.0)
+        qfrc_applied[dof] = -(fric[k, 1] * s + fric[k, 2] * math.exp(-(v / fric[k, 3]) ** 2) * s + fric[k, 4] * v
+                              + fric[k, 5] * power)
 
 
 @numba.njit(cache=True, error_model="numpy")

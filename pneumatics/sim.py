@@ -429,9 +429,9 @@ class Simulation:
         d.ctrl[self._ids] = actuator_force(self.tables, self.pressure)
 
     def _apply_friction(self):
-        for dof, fc, fs, vs, b in self._fric:
+        for dof, *coefficients in self._fric:
             v = self.data.qvel[int(dof)]
-            self.data.qfrc_applied[int(dof)] = friction_torque(v, fc, fs, vs, b)
+            self.data.qfrc_applied[int(dof)] = friction_torque(v, *coefficients)
 
     def _fluid_update(self):
         length = self.data.actuator_length[self._ids]

@@ -141,7 +141,8 @@ def _traced(kernel: str, effects, commands) -> np.ndarray:
 def test_fast_and_reference_agree_with_every_kernel_effect_on(rng, droop_tau_s):
     """... the supply droop in its linear form and behind a receiver (reservoir form)."""
     from pneumatics.effects.effect_set import EffectSet
-    effects = EffectSet(supply_droop_tau_s=droop_tau_s, friction={"shoulder": {"coulomb_nm": 0.05, "stiction_extra_nm": 0.03, "viscous_nm_s": 0.02}},
+    effects = EffectSet(supply_droop_tau_s=droop_tau_s, friction={"shoulder": {"coulomb_nm": 0.05, "stiction_extra_nm": 0.03, "viscous_nm_s": 0.02},
+                                                                   "elbow": {"power_viscous_nm": 0.06, "viscous_exponent": 0.5}},
                         valve_leak_m2={"elbow.a": 3e-8}, external_leak_m2={"shoulder.b": 2e-8},
                         piston_leak_m2={"elbow": 2e-8}, valve_hysteresis_v={"shoulder.a": 0.3},
                         external_leak_laminar_kg_s_pa={"elbow.a": 2e-11}, piston_leak_laminar_kg_s_pa={"shoulder": 2e-11},

@@ -25,8 +25,8 @@ SUPPLY_FIELDS = ("supply_droop_pa_per_kg_s", "supply_droop_tau_s", *COMPRESSOR_F
 @dataclass
 class EffectSet:
     friction: dict = field(default_factory=dict)
-    """joint -> {"coulomb_nm", "stiction_extra_nm", "stribeck_rad_s", "viscous_nm_s"} (coulomb_friction,
-    stiction, viscous_friction); written into ``data.qfrc_applied`` of those joints every step,
+    """joint -> {"coulomb_nm", "stiction_extra_nm", "stribeck_rad_s", "viscous_nm_s", "power_viscous_nm",
+    "viscous_exponent"} (coulomb_friction, stiction, viscous_friction); written into ``data.qfrc_applied`` of those joints every step,
     replacing what a user put there."""
     valve_leak_m2: dict = field(default_factory=dict)
     """chamber -> extra area open both ways near null [m^2] (valve_leak; Gaussian of width valve_leak_width_v)"""
@@ -197,8 +197,9 @@ class EffectSet:
             model.jnt_solref[jid] = (END_STOP_TIMECONST_S, 1.0)
 
     def friction_table(self, robot, model=None) -> np.ndarray:
-        """(n_f, 5): dof address (in ``model``, default the robot's), Coulomb, extra breakaway,
-        Stribeck velocity, viscous."""
+        """(n_f, 7): dof address (in ``model``, default the robot's), Coulomb, extra breakaway,
+        Stribeck velocity, viscous, the velocity-power term's coefficient and exponent
+        (pneumatics.effects.friction.friction_torque's arguments in order)."""
         model = robot.model if model is None else model
         rows = []
         for joint, f in self.friction.items():
@@ -206,8 +207,9 @@ class EffectSet:
                 raise UnknownNameError("joint", joint, robot.joint_names)
             dof = model.jnt_dofadr[model.joint(joint).id]
             rows.append([dof, f.get("coulomb_nm", 0.0), f.get("stiction_extra_nm", 0.0),
-                         f.get("stribeck_rad_s", 0.1), f.get("viscous_nm_s", 0.0)])
-        return np.array(rows, float).reshape(-1, 5)
+                         f.get("stribeck_rad_s", 0.1), f.get("viscous_nm_s", 0.0), f.get("power_viscous_nm", 0.0),
+                         f.get("viscous_exponent", 1.0)])
+        return np.array(rows, float).reshape(-1, 7)
 
     @property
     def has_supply_effect(self) -> bool:

@@ -130,6 +130,7 @@ TORQUE_CASES = [
     ("stiction", "stribeck", "shoulder", {"coulomb_nm": 0.03, "breakaway_extra_nm": 0.1, "stribeck_rad_s": 0.1},
      0.025, 2.0),
     ("viscous_friction", "linear", "elbow", {"viscous_nm_s_per_rad": 0.1}, 0.01, 5.0),
+    ("viscous_friction", "velocity_power", "elbow", {"power_coefficient_nm": 0.07, "exponent": 0.5}, 0.01, 5.0),
     ("angle_sensor_offset", "additive", "shoulder", {"offset_rad": 0.05}, 0.01, 5.0),
     ("angle_sensor_offset", "offset_and_scale", "shoulder", {"offset_rad": 0.02, "scale_error": 0.04}, 0.01, 5.0),
 ]
@@ -189,15 +190,15 @@ def test_the_torque_balance_sees_a_warming_up_pressure_sensor_as_a_settling_forc
     """pressure_sensor_offset, warm_up_drift: the measured pressure carries offset + drift
     (1 - exp(-t / tau)), so the torque balance's equation error carries that times the
     chamber's d tau / d p, which the doctor's drift hypothesis regresses on
-    (hypotheses._drift_regs)."""
-    from identification.doctor.valve_arm.hypotheses import _drift_regs
+    (profiled.drift_regressors)."""
+    from identification.doctor.valve_arm.profiled import drift_regressors
 
     fam = get_family("pressure_sensor_offset")
     params = fam.params({"offset_pa": 3e3, "drift_pa": 1.5e4, "time_constant_s": 1.0}, "warm_up_drift")
     exp = record(arm2, "pressure_sensor_offset", "elbow.b", params)
     td = torque_data(exp)
     c = [f"{a}.{ch}" for a, ch in arm2.chamber_names].index("elbow.b")
-    term = _drift_regs(exp, td, c, 1.0) @ np.array([3e3, 1.5e4])
+    term = drift_regressors(exp, td, c, 1.0) @ np.array([3e3, 1.5e4])
     j = arm2.joint_names.index("elbow")
     with_effect, without = torque_error_nm(td, j, term), torque_error_nm(td, j)
     print(f"warm-up drift: {with_effect:.4f} N m with, {without:.4f} without")
