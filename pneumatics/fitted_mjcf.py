@@ -30,6 +30,12 @@ from .fitted_model import FittedModel
 #: the effects (family) whose native part fitted.xml carries, and what of them it leaves out
 NATIVE = {"coulomb_friction": "", "viscous_friction": "", "end_stop": "its fitted stiffness and damping",
           "stiction": "its breakaway excess (breakaway_extra_nm)"}
+#: forms of those families MuJoCo has nothing for (its joint damping is linear in the velocity)
+NOT_NATIVE_FORMS = {("viscous_friction", "velocity_power")}
+
+
+def _native(e) -> bool:
+    return e.family in NATIVE and (e.family, e.form) not in NOT_NATIVE_FORMS
 
 
 def fitted_mjcf(robot, fm: FittedModel) -> str:
@@ -45,7 +51,7 @@ def fitted_mjcf(robot, fm: FittedModel) -> str:
     for joint, s in fm.scales("armature_scale").items():
         _joint(spec, joint).armature *= s
     for e in fm.effects:
-        if e.family not in NATIVE:
+        if not _native(e):
             continue
         j = _joint(spec, e.place)
         if e.family in ("coulomb_friction", "stiction"):
@@ -101,8 +107,9 @@ def _end_stop(spec, joint, robot, e):
 
 def _header(fm: FittedModel) -> str:
     """A comment: where the file came from and what of the fitted model it does not hold."""
-    left = [f"  {e.family} at {e.place}" + (f": {NATIVE[e.family]}" if NATIVE.get(e.family) else "")
-            for e in fm.effects if e.family not in NATIVE or NATIVE[e.family]]
+    left = [f"  {e.family} at {e.place}" + (f": {NATIVE[e.family]}" if _native(e) else
+                                            f" (its {e.form} form)" if e.family in NATIVE else "")
+            for e in fm.effects if not _native(e) or NATIVE[e.family]]
     chambers = sorted({k for k in fm.calibration if k.split(".")[0] in
                        ("supply_area_scale", "exhaust_area_scale", "dead_volume_scale")})
     lines = [f"<!-- {fm.model} as pneumasim doctor fitted it (pneumasim {fm.pneumasim_version}), for plain MuJoCo.",

@@ -128,18 +128,18 @@ def test_coupled_joints_follow_the_kept_terms():
 
 
 def test_end_stop_grid_two_fold_rss_equals_whole_fits():
-    from identification.doctor.valve_arm import hypotheses as H
+    from identification.doctor.valve_arm import profiled as H
     from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
 
     robot = load_robot("arm2")
     exp = prepare(robot, read_csv(SAMPLE).slice(0, 30))
     td = torque_data(exp)
     fit_rigid_body(td)
-    folds = H._stop_folds(td)
+    folds = H.stop_folds(td)
     for j in range(2):
         at_j = folds_at_joint(td, j, folds)
         for stop in (-0.4, 0.0, 0.4):
-            reg = td.mask(H._stop_regs(exp, j, stop, 1))
+            reg = td.mask(H.stop_regressors(exp, j, stop, 1))
             whole = 0.0
             for fit_on, test_on in td.two_fold():
                 f = fit_rigid_body(fit_on, reg, ["k", "b"], (np.zeros(2), np.full(2, np.inf)))
@@ -152,16 +152,16 @@ def test_a_stop_one_folds_blocks_never_touch_leaves_that_fold_at_the_base():
     """A bumper pressed only inside the second fold's 2 s blocks: the first fold cannot fit it
     (least squares would leave k and b at a start of its own choosing), so that fold's test
     residual is the base fit's; the other fold's is the fit's as usual."""
-    from identification.doctor.valve_arm import hypotheses as H
+    from identification.doctor.valve_arm import profiled as H
     from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
 
     robot = load_robot("arm2")
     exp = prepare(robot, read_csv(SAMPLE).slice(0, 30))
     td = torque_data(exp)
     fit_rigid_body(td)
-    folds = H._stop_folds(td)
+    folds = H.stop_folds(td)
     first, _ = td.two_fold()[0]
-    reg = td.mask(H._stop_regs(exp, 0, 0.0, 1))
+    reg = td.mask(H.stop_regressors(exp, 0, 0.0, 1))
     reg[first.valid] = 0.0          # contact only in the second fold's blocks
     rss = two_fold_rss_at(0, reg, H.STOP_BOUNDS, folds_at_joint(td, 0, folds), td.valid)
     (_, _, _, base_res_first_test), (fit_on, test_on, _, _) = folds

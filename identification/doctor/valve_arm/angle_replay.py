@@ -55,8 +55,8 @@ HORIZON_S = 0.2
 #: sensor; a true offset of 0.014-0.058 rad on arm2's development recordings of the random-form
 #: generator lowered its joint's NRMSE 1.2-2.8 times, a false 0.013 rad one at humanoid38's knee
 #: raised it 1.27 times)
-JUDGED_ATTRS = ("coulomb_nm", "stiction_extra_nm", "viscous_nm_s", "end_stop_nm_per_rad", "end_stop_nm_s_per_rad",
-                "angle_offset_rad", "angle_scale_error")
+JUDGED_ATTRS = ("coulomb_nm", "stiction_extra_nm", "viscous_nm_s", "viscous_power_nm", "end_stop_nm_per_rad",
+                "end_stop_nm_s_per_rad", "angle_offset_rad", "angle_scale_error")
 #: a finding whose replay of its joint's angle is worse than this many times the one without it
 #: is withdrawn; a smaller change is a tie: the held-out data do not exercise the finding (a
 #: true end stop left arm2's elbow NRMSE at 0.0187 to three digits, seed 234810828), so they
@@ -134,6 +134,8 @@ def final_mech_mods(run: DoctorRun, without: Finding | None = None, fit=None) ->
     mm = MechMods.from_fit(run.final_rfit if fit is None else fit, robot.joint_names, terms)
     mm.end_stops = {h.joint: (h.fixed["stop_rad"]["value"], h.fixed["side_sign"]["value"])
                     for h in run.kept_mech if h.family == "end_stop" and h is not skip}
+    mm.viscous_exponents = {h.joint: h.fixed["exponent"]["value"] for h in run.kept_mech
+                            if h.form == "velocity_power" and h is not skip}
     add_breakaway(mm, [f for f in run.findings if f is not without], len(robot.joint_names))
     return mm
 

@@ -102,6 +102,8 @@ def replay_mods(robot) -> tuple[PneumaticMods, MechMods]:
                 setattr(mmods, attr, arr)
             if e.family == "end_stop":
                 mmods.end_stops[j] = (e.value("stop_rad"), e.value("side_sign"))
+            elif e.form == "velocity_power":
+                mmods.viscous_exponents[j] = e.value("exponent") if "exponent" in e.parameters else 1.0
         else:
             raise ConfigError(f"{e.family} ({e.form}) at {e.place}: the doctor's replays have no such effect")
     return pmods, mmods

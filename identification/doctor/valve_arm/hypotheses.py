@@ -10,76 +10,20 @@ stays here is the doctor's search: which forms it tries, where it starts, its bo
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
-from typing import Callable
 
 import mujoco
 import numpy as np
 
 from pneumatics.effects.end_stop import penetration
 from pneumatics.effects.friction import coulomb_shape
-from pneumatics.effects.pressure_sensor_offset import offset_at
 from pneumatics.effects.registry import get_family
 
-from .calibrate import SCALE_BOUND
-from .joint_fit import folds_at_joint, two_fold_rss_at
-from .mechanics import fit_rigid_body
+from .hypothesis import Hypothesis, torque_regressor
+from .profiled import (DRIFT_START_S, DRIFT_TAU_GRID_S, drift_hypotheses, end_stop_hypotheses, rigid_body_residual,
+                       velocity_power_hypotheses)
 
 __all__ = ["Hypothesis", "end_stop_hypotheses", "mechanical_hypotheses", "penetration", "pneumatic_hypotheses",
            "smooth_torque_yardstick"]
-
-
-@dataclass
-class Hypothesis:
-    family: str
-    where: dict
-    kind: str                     # "pneumatic" | "mechanical"
-    params: list                  # [(name_unit, start, lower, upper, probe step)]
-    chambers: list = field(default_factory=list)   # chambers whose replay it changes
-    joint: int | None = None
-    apply: Callable | None = None           # (mods, x) -> mods
-    regressor: Callable | None = None       # (exp, td) -> (N, J, E)
-    fixed: dict = field(default_factory=dict)  # parameters chosen before the linear fit: name -> {value, stderr}
-    null_value: float = 0.0       # the parameter value that switches the effect off (apply(mods, [null]))
-    adds_volume: float = 0.0      # a tube's volume adds to this nominal dead volume [m^3]: it may grow past the calibration bound
-    tested: tuple | None = None   # indices of the parameters the keep rule tests (None: all)
-    any_tested: bool = False      # the keep rule asks one of them, not each (rules.keeps)
-    screened: bool = True         # scored and fitted by the greedy search (False: by its own check, supply_receiver)
-    form: str = ""                # the family's form when not its first (tells two forms at one place apart)
-    state_torque: Callable | None = None    # (values (k,), q (W,), qd (W,)) -> torque applied at its joint (W,) [N m]:
-                                            # the yardsticks' fitted torque, for the angle replay (angle_replay)
-    local: bool = False           # acts in a regime of its joint's angle alone (an end stop in contact)
-
-    def keep_mask(self) -> np.ndarray:
-        """(k,) bool: the parameters that must each be MIN_T standard errors from 0 (a sensor's
-        warm-up drift must be; the offset it starts from may be 0)."""
-        k = len(self.params)
-        return np.ones(k, bool) if self.tested is None else np.isin(np.arange(k), self.tested)
-
-    def __post_init__(self):
-        if self.regressor is not None:  # the equations the torque data leave out, left out here too
-            reg = self.regressor
-            self.regressor = lambda exp, td: td.mask(reg(exp, td))
-
-    def null_vector(self) -> np.ndarray:
-        """Every parameter at the value that switches the effect off."""
-        return np.full(len(self.params), self.null_value)
-
-    def switched_off(self, mods):
-        """``mods`` without this effect: its parameters at their null values, and a tube's
-        volume (``adds_volume``) taken back to what a calibration may hold (SCALE_BOUND)."""
-        out = self.apply(mods, self.null_vector())
-        if self.adds_volume:
-            scale = out.dead_volume_scale.copy()
-            scale[self.chambers] = np.minimum(scale[self.chambers], SCALE_BOUND)
-            out = out.copy(dead_volume_scale=scale)
-        return out
-
-    @property
-    def label(self) -> str:
-        w = self.where
-        place = w.get("joint") or (f"{w['actuator']}.{w['chamber']}" if "chamber" in w else w.get("actuator", "all"))
-        return f"{self.family}@{place}" + (f" ({self.form})" if self.form else "")
 
 
 def _apply(family: str, robot, place: str, form: str | None = None):
@@ -93,17 +37,6 @@ def _apply(family: str, robot, place: str, form: str | None = None):
     def apply(mods, x):
         return fam.apply_to_mods(mods, robot, place, cls(**dict(zip(names, x))))
     return apply
-
-
-def _torque_regressor(family: str, joint: int, units: list[dict], form: str | None = None):
-    """(exp, td) -> (N, J, E): the torque the family adds to the equation error per unit of each
-    parameter (linear in them), from its own law (Family.torque_balance_term)."""
-    fam = get_family(family)
-    cls = fam.form_class(form)
-
-    def reg(exp, td):
-        return np.stack([fam.torque_balance_term(exp, td, joint, cls(**u)) for u in units], axis=2)
-    return reg
 
 
 #: gas-wall conductance h A [W/K] the heat_transfer hypothesis starts from and its upper bound:
@@ -238,133 +171,6 @@ def angle_profile_yardstick(robot, j: int, exp) -> Hypothesis:
                       [(n, 0.0, -np.inf, np.inf, 0.0) for n in names], joint=j, regressor=reg, state_torque=torque)
 
 
-#: the bounds of an end stop's stiffness and damping while its place is chosen (the fit proper
-#: bounds the stiffness below by END_STOP_MIN_STIFFNESS_NM_PER_RAD)
-STOP_BOUNDS = (np.zeros(2), np.full(2, np.inf))
-
-
-def _stop_folds(td) -> list:
-    """[(fit on, test on, the base fit on the first, its residual (M, J) on the second's valid
-    samples)] of the two-fold split, computed once for every stop on the grid (joint_fit.folds_at_joint)."""
-    out = []
-    for fit_on, test_on in td.two_fold():
-        base = fit_rigid_body(fit_on)
-        test = test_on.valid
-        out.append((fit_on, test_on, base, td.residual[test] - np.einsum("njp,p->nj", td.regressors[test], base.values)))
-    return out
-
-
-def _stop_regs(exp, j, stop, side, td=None):
-    """(N, J, 2) regressors of a bumper at ``stop``: its spring (penetration) and its damping
-    (velocity while in contact), both entering the equation error with a positive coefficient
-    (the end_stop family's spring_damper law per unit stiffness and damping)."""
-    at = {"stop_rad": stop, "side_sign": float(side)}
-    units = [{**at, "stiffness_nm_per_rad": 1.0}, {**at, "damping_nm_s_per_rad": 1.0}]
-    return _torque_regressor("end_stop", j, units, "spring_damper")(exp, td)
-
-
-#: the least stiffness an end stop may have [N m/rad].  A stop holds the joint: arm2's cylinders
-#: give at most 5.7 N m (shoulder: 6 bar over a 20 mm bore on a 30 mm arm) and 3.0 N m (elbow),
-#: which a 20 N m/rad bumper lets in by 0.29 and 0.15 rad, already a soft one (the stops of the
-#: simulator, a 5 ms MuJoCo soft limit, are fitted at 170-300 N m/rad).  A fit that wants less
-#: is a weak spring standing in for something else (an angle offset makes doctor_blind_benchmark
-#: seed 1026 fit 1.4 N m/rad), so the fit is bounded here and a stiffness stuck at the bound is rejected.
-END_STOP_MIN_STIFFNESS_NM_PER_RAD = 20.0
-
-
-def end_stop_hypotheses(robot, exp, td, n_grid: int = 24) -> list[Hypothesis]:
-    """An end stop (bumper) inside the model's joint range: a one-sided spring-damper torque
-    -k (q - q_stop) - b qd past q_stop (Hunt & Crossley 1975 without the power law).  The
-    equation error then carries +k * penetration + b * qd in contact (tau_act - tau_inv =
-    -tau_stop); k and b enter linearly, q_stop is chosen on a grid over the outer 15 % of
-    the angles the training data visited, out to its last few samples (profile least squares; its stderr from the profile's
-    Delta chi^2 = 1 interval).  The bumper's torque is evaluated as the family defines it for
-    the torque balance (end_stop: on the barely smoothed angle, smoothed as the equation error)."""
-    base = fit_rigid_body(td)
-    folds = _stop_folds(td)
-    out = []
-    for j, name in enumerate(robot.joint_names):
-        at_j = folds_at_joint(td, j, folds)
-        qv = exp.q_s[td.valid, j]
-        for side in (1, -1):
-            # from the 85 % quantile out to the last few samples, evenly in the log of the
-            # number of samples past the stop: the arm dwells at its extremes, pressing a stiff
-            # bumper by a few milliradians, so the stops that matter are packed near the end
-            outward = np.sort(side * qv)[::-1] * side
-            qs = outward[np.unique(np.geomspace(3, 0.15 * qv.size, n_grid).astype(int))][::-1]
-            # each half of the training samples predicted by a fit to the other half: a stop
-            # placed where only a few impacts happen to fit well does not generalise, and this
-            # says so before held-out data do
-            units = get_family("end_stop").torque_balance_units(exp, td, j, qs, side)  # (N, S, 2), as _stop_regs
-            reg = np.zeros(exp.qd.shape + (2,))
-            rss = np.empty(qs.size)
-            for i in range(qs.size):
-                reg[:, j] = units[:, i]
-                rss[i] = two_fold_rss_at(j, td.mask(reg), STOP_BOUNDS, at_j, td.valid)
-            k = int(np.argmin(rss))
-            sigma2 = rss[k] / max(base.n - len(base.values) - 2, 1)  # (unscaled torque units)
-            inside = qs[(rss - rss[k]) / sigma2 <= 1.0]
-            stderr = max(float(np.ptp(inside)) / 2, float(np.abs(np.diff(qs)).mean()) / 2)
-            stop = float(qs[k])
-            out.append(Hypothesis(
-                "end_stop", {"joint": name}, "mechanical", [("stiffness_nm_per_rad", END_STOP_MIN_STIFFNESS_NM_PER_RAD,
-                                                             END_STOP_MIN_STIFFNESS_NM_PER_RAD, np.inf, 0.0),
-                                                            ("damping_nm_s_per_rad", 0.0, 0.0, np.inf, 0.0)], joint=j,
-                regressor=lambda e, td_, j=j, stop=stop, side=side: _stop_regs(e, j, stop, side, td_),
-                fixed={"stop_rad": {"value": stop, "stderr": stderr}, "side_sign": {"value": float(side), "stderr": 0.0}},
-                # the stiffness makes it a stop; a bumper pressed by a few mrad at low speed
-                # need not show its damping (kept in the law, at 0 if the data want none)
-                tested=(0,), local=True))
-    return out
-
-
-#: the time constants [s] a warming-up pressure sensor's drift is tried with in the torque
-#: balance (profile least squares, as the end stops' place); the longest is a near-linear drift
-#: over a minute's recording
-DRIFT_TAU_GRID_S = (3.0, 6.0, 12.0, 25.0, 50.0, 100.0, 300.0)
-#: where the replays' fit of the time constant starts [s]
-DRIFT_START_S = 20.0
-
-
-def _drift_regs(exp, td, c: int, tau_s: float):
-    """(N, J, 2) torque of chamber c's pressure-sensor offset per Pa: constant, and settling
-    as 1 - exp(-t / tau) on the recording's clock (pressure_sensor_offset, warm_up_drift)."""
-    settled = offset_at(exp.clock_at(), 0.0, 1.0, tau_s)  # the family's law per Pa of drift
-    unit = td.dtau_dp[:, :, c:c + 1]
-    return np.concatenate([unit, unit * settled[:, None, None]], axis=2)
-
-
-def drift_hypotheses(robot, exp, td) -> list[Hypothesis]:
-    """A warming-up pressure sensor at every chamber, seen by the torque balance as a force
-    error offset + drift (1 - exp(-t / tau)) times the chamber's area: offset and drift enter
-    linearly, tau is chosen on DRIFT_TAU_GRID_S by how much of the calibrated rigid body's
-    residual the two columns take up (profile least squares; the rigid body is refitted beside
-    the chosen one when the hypothesis is scored).  Not the end stops' two-fold residual: its
-    halves are the recording's first and second half, and a drift fitted on one half is
-    extrapolated in time to the other."""
-    v = td.valid
-    base = fit_rigid_body(td)
-    residual = td.residual[v] - np.einsum("njp,p->nj", td.regressors[v], base.values)   # (M, J)
-    clock = exp.clock_at()[v]
-    out = []
-    for c, (a, ch) in enumerate(robot.chamber_names):
-        j = robot.joint_names.index(a) if a in robot.joint_names else 0
-        unit = td.mask(td.dtau_dp[:, :, c:c + 1])[v][:, :, 0]                           # (M, J)
-        acts = np.any(unit != 0, axis=0)  # the joints this chamber's force reaches: the rest
-        unit, r = unit[:, acts], residual[:, acts].ravel()  # add the same to every tau's rss
-        rss = []
-        for tau in DRIFT_TAU_GRID_S:  # _drift_regs at those joints
-            A = np.column_stack([unit.ravel(), (unit * offset_at(clock, 0.0, 1.0, tau)[:, None]).ravel()])
-            coef = np.linalg.lstsq(A, r, rcond=None)[0]
-            rss.append(float(np.sum((r - A @ coef) ** 2)))
-        tau = DRIFT_TAU_GRID_S[int(np.argmin(rss))]
-        out.append(Hypothesis("pressure_sensor_offset", {"actuator": a, "chamber": ch}, "mechanical",
-                              [("offset_pa", 0.0, -5e4, 5e4, 0.0), ("drift_pa", 0.0, -5e4, 5e4, 0.0)],
-                              chambers=[c], joint=j, regressor=lambda e, td_, c=c, tau=tau: _drift_regs(e, td_, c, tau),
-                              fixed={"time_constant_s": {"value": tau, "stderr": 0.0}}, tested=(1,)))
-    return out
-
-
 #: the largest gain error an angle sensor may have [-]: a potentiometer's or a two-point
 #: calibration's few per cent (the random-form generator draws 1-3 %), an eccentric disc's e cos(phi)
 #: <= 0.015.  A fit that wants more is a spring standing in (a hose pulling the elbow with
@@ -375,29 +181,34 @@ ANGLE_GAIN_MAX = 0.05
 
 def mechanical_hypotheses(robot, exp=None, td=None) -> list[Hypothesis]:
     """Friction, angle-sensor offsets and pressure-sensor offsets at every joint/chamber; end
-    stops and warming-up pressure sensors too when the training data (``exp``, ``td``) are
-    given to place them and choose their time constant."""
-    out = end_stop_hypotheses(robot, exp, td) + drift_hypotheses(robot, exp, td) if exp is not None else []
+    stops, warming-up pressure sensors and velocity-power friction too when the training data
+    (``exp``, ``td``) are given to place them and choose their time constant or exponent
+    (profiled.py)."""
+    out = []
+    if exp is not None:
+        residual = rigid_body_residual(td)
+        out = (end_stop_hypotheses(robot, exp, td) + drift_hypotheses(robot, exp, td, residual)
+               + velocity_power_hypotheses(robot, exp, td, residual))
     for j, name in enumerate(robot.joint_names):
         w = {"joint": name}
         out += [
             Hypothesis("coulomb_friction", w, "mechanical", [("coulomb_nm", 0.0, 0.0, np.inf, 0.0)], joint=j,
-                       regressor=_torque_regressor("coulomb_friction", j, [{"coulomb_nm": 1.0}])),
+                       regressor=torque_regressor("coulomb_friction", j, [{"coulomb_nm": 1.0}])),
             # stiction is Stribeck friction: a Coulomb level plus a breakaway excess at low speed
             Hypothesis("stiction", w, "mechanical", [("coulomb_nm", 0.0, 0.0, np.inf, 0.0),
                                                      ("breakaway_extra_nm", 0.0, 0.0, np.inf, 0.0)], joint=j,
-                       regressor=_torque_regressor("stiction", j, [{"coulomb_nm": 1.0}, {"breakaway_extra_nm": 1.0}])),
+                       regressor=torque_regressor("stiction", j, [{"coulomb_nm": 1.0}, {"breakaway_extra_nm": 1.0}])),
             Hypothesis("viscous_friction", w, "mechanical", [("viscous_nm_s_per_rad", 0.0, 0.0, np.inf, 0.0)],
-                       joint=j, regressor=_torque_regressor("viscous_friction", j, [{"viscous_nm_s_per_rad": 1.0}])),
+                       joint=j, regressor=torque_regressor("viscous_friction", j, [{"viscous_nm_s_per_rad": 1.0}])),
             Hypothesis("angle_sensor_offset", w, "mechanical", [("offset_rad", 0.0, -0.2, 0.2, 0.0)], joint=j,
-                       regressor=_torque_regressor("angle_sensor_offset", j, [{"offset_rad": 1.0}])),
+                       regressor=torque_regressor("angle_sensor_offset", j, [{"offset_rad": 1.0}])),
             # ... and its gain too: a two-point calibration's two errors, or over the joint's
             # travel an eccentric disc's once-per-turn error (angle_sensor_offset's docstring),
             # within ANGLE_GAIN_MAX
             Hypothesis("angle_sensor_offset", w, "mechanical", [("offset_rad", 0.0, -0.2, 0.2, 0.0),
                                                                 ("scale_error", 0.0, -ANGLE_GAIN_MAX, ANGLE_GAIN_MAX, 0.0)],
                        joint=j,
-                       regressor=_torque_regressor("angle_sensor_offset", j, [{"offset_rad": 1.0},
+                       regressor=torque_regressor("angle_sensor_offset", j, [{"offset_rad": 1.0},
                                                                              {"offset_rad": 0.0, "scale_error": 1.0}],
                                                    "offset_and_scale"), form="offset_and_scale"),
         ]

@@ -39,6 +39,8 @@ class MechMods:
     coulomb_nm: np.ndarray = None
     stiction_extra_nm: np.ndarray = None
     viscous_nm_s: np.ndarray = None
+    viscous_power_nm: np.ndarray = None                # b_n of a velocity-power viscous friction
+    viscous_exponents: dict = field(default_factory=dict)  # joint index -> its exponent n
     angle_offset_rad: np.ndarray = None
     angle_scale_error: np.ndarray = None               # the angle sensor's gain error (offset_and_scale form)
     end_stop_nm_per_rad: np.ndarray = None             # stiffness of an end stop (end_stop)
@@ -83,13 +85,16 @@ class MechMods:
     def torque(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray | None:
         """(W, J) friction and end-stop torques at joint angles q and velocities qd (W, J)."""
         stops = self.end_stop_nm_per_rad is not None and self.end_stops
-        if (self.coulomb_nm is None and self.stiction_extra_nm is None and self.viscous_nm_s is None and not stops
-                and not self.state_torques):
+        if (self.coulomb_nm is None and self.stiction_extra_nm is None and self.viscous_nm_s is None
+                and self.viscous_power_nm is None and not stops and not self.state_torques):
             return None
         z = np.zeros_like(qd)
+        exponents = np.ones(qd.shape[1])
+        exponents[list(self.viscous_exponents)] = list(self.viscous_exponents.values())
         tau = friction_torque(qd, z + (0 if self.coulomb_nm is None else self.coulomb_nm),
                               z + (0 if self.stiction_extra_nm is None else self.stiction_extra_nm),
-                              0.1, z + (0 if self.viscous_nm_s is None else self.viscous_nm_s))
+                              0.1, z + (0 if self.viscous_nm_s is None else self.viscous_nm_s),
+                              z + (0 if self.viscous_power_nm is None else self.viscous_power_nm), exponents)
         if stops:
             for j, (stop, side) in self.end_stops.items():
                 pen = penetration(q[:, j], stop, side)

@@ -44,8 +44,8 @@ FIT_WITHIN = 1 / 3         # within this fraction of the best's.  The score test
                            # ranking is rough: on doctor_blind_benchmark seed 1019 a piston leak
                            # (held-out gain 0.99 once fitted) ranks 4th at 0.48 of the best's
                            # predicted gain with the one-area valve leak, 5th with both forms
-#: End-stop hypotheses (hypotheses.end_stop_hypotheses).  Their stiffness is bounded below by
-#: hypotheses.END_STOP_MIN_STIFFNESS_NM_PER_RAD: without the bound a weak "stop" spring stands
+#: End-stop hypotheses (profiled.end_stop_hypotheses).  Their stiffness is bounded below by
+#: profiled.END_STOP_MIN_STIFFNESS_NM_PER_RAD: without the bound a weak "stop" spring stands
 #: in for an angle-sensor offset (doctor_blind_benchmark seed 1026).  With it they name the bumpers of unconcealed
 #: end-stop recordings and nothing on the null and angle-offset cases (tests/test_doctor_new_effects.py).
 END_STOP_HYPOTHESES = True

@@ -436,7 +436,7 @@ def worth_fitting(cands: list) -> list:
 #: each torque-balance parameter the doctor reports -> its MechMods attribute (replay.MechMods);
 #: None: not a MechMods term (a pressure-sensor offset acts on the chamber model)
 MECH_ATTRS = {"coulomb_nm": "coulomb_nm", "breakaway_extra_nm": "stiction_extra_nm",
-              "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad", "scale_error": "angle_scale_error",
+              "viscous_nm_s_per_rad": "viscous_nm_s", "power_coefficient_nm": "viscous_power_nm", "offset_rad": "angle_offset_rad", "scale_error": "angle_scale_error",
               "offset_pa": None, "drift_pa": None, "stiffness_nm_per_rad": "end_stop_nm_per_rad",
               "damping_nm_s_per_rad": "end_stop_nm_s_per_rad"}
 
