@@ -77,6 +77,8 @@ CASES = [
      {"coulomb_nm": 0.02, "stiction_extra_nm": 0.01, "stribeck_rad_s": 0.1}),
     (effect("viscous_friction", "linear", {"joint": "shoulder"}, viscous_nm_s_per_rad=0.01), "friction", "shoulder",
      {"viscous_nm_s": 0.01}),
+    (effect("viscous_friction", "velocity_power", {"joint": "elbow"}, power_coefficient_nm=0.05, exponent=0.5),
+     "friction", "elbow", {"power_viscous_nm": 0.05, "viscous_exponent": 0.5}),
 ]
 
 
@@ -97,6 +99,21 @@ def test_friction_forms_at_one_joint_add_up(arm2):
                                     breakaway_extra_nm=0.02)], arm2)
     assert effects.friction["elbow"] == pytest.approx({"coulomb_nm": 0.04, "viscous_nm_s": 0.01,
                                                        "stiction_extra_nm": 0.02, "stribeck_rad_s": 0.1})
+
+
+def test_a_power_law_friction_replays_as_the_simulator_runs_it(arm2):
+    """The doctor's replays (MechMods.torque) and the simulator (its friction table, the kernel's
+    law) apply one fitted velocity-power friction alike, the exponent included."""
+    from pneumatics.effects.friction import friction_torque
+
+    fm = FittedModel("arm2", effects=[effect("viscous_friction", "velocity_power", {"joint": "elbow"},
+                                             power_coefficient_nm=0.05, exponent=0.5)])
+    robot = load_robot("arm2", fitted=fm)
+    _, mm = replay_mods(robot)
+    qd = np.column_stack([np.zeros(7), np.array([-2.0, -0.3, -0.005, 0.0, 0.004, 0.2, 1.5])])
+    (row,) = robot.effects.friction_table(robot)
+    np.testing.assert_allclose(mm.torque(np.zeros_like(qd), qd)[:, 1], friction_torque(qd[:, 1], *row[1:]), rtol=1e-12)
+    assert mm.torque(np.zeros_like(qd), qd)[5, 1] == pytest.approx(-0.05 * 0.2 ** 0.5)
 
 
 def test_every_doctor_hypothesis_has_a_form_the_simulator_maps(arm2):
@@ -159,9 +176,9 @@ def full_model() -> FittedModel:
         "arm2", calibration={"supply_area_scale.elbow.a": est(1.2, 0.01), "exhaust_area_scale.shoulder.b": est(0.9, 0.02),
                              "dead_volume_scale.elbow.b": est(1.3, 0.05), "mass_scale.forearm": est(1.1, 0.003),
                              "damping_scale.shoulder": est(1.25, 0.02), "armature_scale.elbow": est(1.5, float("nan"))},
-        effects=[c[0] for c in CASES[:-3]] + [effect("coulomb_friction", "coulomb", {"joint": "shoulder"}, coulomb_nm=0.04),
-                                              effect("viscous_friction", "linear", {"joint": "elbow"},
-                                                     viscous_nm_s_per_rad=0.01)],
+        effects=[c[0] for c in CASES if c[1] != "friction"]
+        + [effect("coulomb_friction", "coulomb", {"joint": "shoulder"}, coulomb_nm=0.04),
+           effect("viscous_friction", "linear", {"joint": "elbow"}, viscous_nm_s_per_rad=0.01)],
         unexplained=[{"where": {"joint": "elbow"}, "regime": "high velocity", "share_of_residual": 0.3,
                       "evidence": "a \"smooth\" torque removes 30 %"}],
         fitted_on=["run1.csv", "run 2.csv"], heldout_on=["held.csv"], heldout_nrmse_after={"q.elbow": 0.01},

@@ -103,7 +103,9 @@ def replay_mods(robot) -> tuple[PneumaticMods, MechMods]:
             if e.family == "end_stop":
                 mmods.end_stops[j] = (e.value("stop_rad"), e.value("side_sign"))
             elif e.form == "velocity_power":
-                mmods.viscous_exponents[j] = e.value("exponent") if "exponent" in e.parameters else 1.0
+                # a shape the file may leave out: the form's own default then (from_finding.FORMS)
+                mmods.viscous_exponents[j] = (e.value("exponent") if "exponent" in e.parameters
+                                              else get_family(e.family).params({}, e.form).exponent)
         else:
             raise ConfigError(f"{e.family} ({e.form}) at {e.place}: the doctor's replays have no such effect")
     return pmods, mmods
