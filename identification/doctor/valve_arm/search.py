@@ -114,10 +114,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             finding = line_named(run, finding)
         run.findings.append(finding)
         run.tried.add(finding.scored.hyp.label)
-        # one effect of a family at a place: its other forms there are not tried again (a
-        # dead time found, a first-order lag on top of it would be the same valve's lag twice)
-        family = {finding.family, finding.scored.hyp.family}
-        run.tried.update(s.hyp.label for s in scored if s.hyp.family in family and s.hyp.where == finding.where)
+        close_other_forms(run, scored, {finding.family, finding.scored.hyp.family}, finding.where)
         run.mods = finding.scored.mods
     if retry_receiver and run.findings and "supply_droop@all" not in run.tried:
         search_receiver(run, say)  # with the chamber effects found meanwhile in the model
@@ -291,8 +288,7 @@ def _keep_mechanical(run: DoctorRun, finding: Finding, scored: list, base_h, blo
     best = finding.scored
     run.tried.update(s.hyp.label for s in scored if s.hyp.family == best.hyp.family
                      and s.hyp.where.get("actuator") == best.hyp.where.get("actuator") and "chamber" in s.hyp.where)
-    # the family's other forms at the same place (an angle offset with or without its gain)
-    run.tried.update(s.hyp.label for s in scored if s.hyp.family == best.hyp.family and s.hyp.where == best.hyp.where)
+    close_other_forms(run, scored, {best.hyp.family}, best.hyp.where)
     run.tried.add(best.hyp.label)
     run.base_extra = stack_terms(run.base_extra, best.hyp.regressor(run.exp, run.td), best.hyp)
     run.kept_mech.append(best.hyp)
@@ -302,6 +298,13 @@ def _keep_mechanical(run: DoctorRun, finding: Finding, scored: list, base_h, blo
     # joint for the next round or the unexplained check: fit them again beside it
     calibrate_rigid_body(run.td, *run.base_extra)
     return True
+
+
+def close_other_forms(run: DoctorRun, scored: list, families: set, where: dict) -> None:
+    """One effect of a family at a place: its other forms there are not tried again (a dead
+    time found, a first-order lag on top of it would be the same valve's lag twice; an angle
+    offset with or without its gain; a linear viscous friction beside its power law)."""
+    run.tried.update(s.hyp.label for s in scored if s.hyp.family in families and s.hyp.where == where)
 
 
 def accept_best(candidates: list, keep: float) -> Finding | None:
