@@ -30,7 +30,8 @@ import numpy as np
 
 from .effects.external_leak import laminar_flow
 from .effects.piston_leak import piston_leak_flow
-from .effects.supply_droop import CompressorCycling, filtered_flow, receiver_step, supply_pressure
+from .effects.supply_droop import (CompressorCycling, droop_pa, filtered_flow, flow_of_droop, receiver_step,
+                                   supply_pressure)
 from .medium import GasCfg, orifice_flow
 from .tables import FluidTables, valve_areas_table
 from .valve import valve_areas
@@ -123,18 +124,18 @@ def fluid_step_areas(tables: FluidTables, p, a_supply, a_exhaust, prev_length, l
 def supply_pressure_after(tables: FluidTables, p, a_supply, previous_pa: float | None = None,
                           dt: float = 0.0) -> float:
     """Supply pressure [Pa] in effect for the next step under the supply_droop effect: the
-    nominal supply minus droop x the total mass flow the chambers draw at pressures p, that
+    nominal supply minus the droop (k m + k2 m^2) of the total mass flow the chambers draw at pressures p, that
     flow low-passed over ``dt`` [s] with the reservoir form's time constant from the
     ``previous_pa`` supply pressure in effect (effects.supply_droop)."""
-    k = tables.supply_droop_pa_per_kg_s
-    if k <= 0:
+    k, k2 = tables.supply_droop_pa_per_kg_s, tables.supply_droop_pa_per_kg2_s2
+    if k <= 0 and k2 <= 0:
         return tables.supply_pa
     m = orifice_flow(a_supply, tables.supply_pa, p, tables.gas)[0]
-    now = supply_pressure(tables.supply_pa, k, m)
     if tables.supply_droop_tau_s <= 0 or previous_pa is None:
-        return now
-    before = (tables.supply_pa - previous_pa) / k
-    return tables.supply_pa - k * filtered_flow(before, (tables.supply_pa - now) / k, tables.supply_droop_tau_s, dt)
+        return supply_pressure(tables.supply_pa, k, m, k2)
+    before = flow_of_droop(tables.supply_pa - previous_pa, k, k2)
+    total = float(np.maximum(m, 0.0).sum())
+    return tables.supply_pa - droop_pa(filtered_flow(before, total, tables.supply_droop_tau_s, dt), k, k2)
 
 
 def receiver_after(tables: FluidTables, p, a_supply, previous_pa: float, running: bool, dt: float) -> tuple[float, bool]:

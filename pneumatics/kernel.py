@@ -14,14 +14,15 @@ Table layouts (from :meth:`pneumatics.tables.FluidTables.packed`):
   fric (n_f, 7):   dof address, Coulomb [N m], extra breakaway [N m], Stribeck velocity
                    [rad/s], viscous [N m s/rad], velocity-power coefficient [N m (s/rad)^n] and
                    exponent n (effects coulomb_friction, stiction, viscous_friction)
-  glob (21 + flow_polynomial.SIZE,): R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply,
+  glob (22 + flow_polynomial.SIZE,): R, k, T, n, laminar ratio, r_c, c_choke, c_sub, supply,
                    room, dt, slope of the linearised flow near r = 1, supply droop
                    [Pa/(kg/s)] (effect supply_droop, 0 = none), supply pressure in effect
                    (state), the droop's time constant [s] (reservoir form, 0 = none), the
                    compressor_cycling form's receiver volume [m^3] (0 = none), delivery
                    [kg/s], band [Pa], cut-out [Pa], leak [kg/(s Pa)] and whether it runs
                    (state, 0 / 1); from POLY = 21 on, the flow function's polynomial
-                   (pneumatics.flow_polynomial)
+                   (pneumatics.flow_polynomial); last (QUADRATIC_DROOP), the supply droop per
+                   (kg/s)^2 [Pa/(kg/s)^2] (regulator_orifice form, 0 = none)
 """
 from __future__ import annotations
 
@@ -33,7 +34,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from .flow_polynomial import DEGREE, flow_polynomial
+from .flow_polynomial import DEGREE, SIZE, flow_polynomial
 from .medium import flow_function
 
 GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
@@ -42,6 +43,8 @@ MAX_REL_CHANGE = 0.25
 ERR_TOL = 1e-3
 #: where the flow function's polynomial starts in glob (module docstring)
 POLY = 21
+#: glob's last slot: the quadratic supply droop (after the polynomial, so the slots before it keep their places)
+QUADRATIC_DROOP = POLY + SIZE
 #: glob's compressor_cycling entries (module docstring)
 RECEIVER, RUNNING = 15, 20
 
@@ -158,13 +161,16 @@ def integrate_chambers_into(p, areas, prev_length, length, act, ch, glob, work):
                                                                  glob, dt, m_extra[i], 1)
     if glob[RECEIVER] > 0.0:  # supply_droop, compressor_cycling: the receiver's air balance
         _receiver_step(p, areas, glob)
-    elif glob[12] > 0.0:  # supply_droop: the line drops pressure with the total supply flow
+    elif glob[12] > 0.0 or glob[QUADRATIC_DROOP] > 0.0:  # supply_droop: the supply falls with its total flow
         total = 0.0
         for i in range(n_ch):
             m_s, _, _ = orifice_flow_compiled(areas[i, 0], glob[8], p[i], glob)
             total += max(m_s, 0.0)
-        before = (glob[8] - glob[13]) / glob[12]  # the flow the droop in effect follows (reservoir form)
-        glob[13] = glob[8] - glob[12] * (before + (total - before) * dt / (glob[14] + dt))
+        k, k2 = glob[12], glob[QUADRATIC_DROOP]
+        drop = glob[8] - glob[13]  # the flow the droop in effect follows (effects.supply_droop.flow_of_droop)
+        before = drop / k if k2 <= 0.0 else 2.0 * drop / (k + math.sqrt(k * k + 4.0 * k2 * drop)) if drop > 0.0 else 0.0
+        m_f = before + (total - before) * dt / (glob[14] + dt)
+        glob[13] = glob[8] - (k * m_f + k2 * m_f * m_f)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -315,11 +321,11 @@ def pack(tables, ctrl_index, dt):
                                                 tables.piston_leak_g]))
     ch = np.ascontiguousarray(np.column_stack([ch, tables.external_leak_m2, tables.external_leak_g]))
     return act, ch, pack_glob(tables.gas, tables.supply_pa, tables.room_pa, dt, tables.supply_droop_pa_per_kg_s,
-                              tables.supply_droop_tau_s, tables.supply_compressor)
+                              tables.supply_droop_tau_s, tables.supply_compressor, tables.supply_droop_pa_per_kg2_s2)
 
 
 def pack_glob(gas, supply_pa: float, room_pa: float, dt: float, droop: float, droop_tau_s: float = 0.0,
-              compressor=None) -> np.ndarray:
+              compressor=None, droop_pa_per_kg2_s2: float = 0.0) -> np.ndarray:
     """The kernel's gas and plant constants, ``glob`` of the module docstring; ``compressor``
     (5,) the compressor_cycling form's values (effects.supply_droop.COMPRESSOR_FIELDS) or None.
     Its receiver starts at the cut-out pressure, the compressor off."""
@@ -327,7 +333,8 @@ def pack_glob(gas, supply_pa: float, room_pa: float, dt: float, droop: float, dr
     receiver = np.zeros(5) if compressor is None else np.asarray(compressor, float)
     start = supply_pa if compressor is None else receiver[3]
     return np.concatenate([gas.as_array(), [supply_pa, room_pa, dt, slope, droop, start, droop_tau_s], receiver, [0.0],
-                           flow_polynomial(gas.heat_capacity_ratio, gas.critical_ratio, gas.laminar_ratio)])
+                           flow_polynomial(gas.heat_capacity_ratio, gas.critical_ratio, gas.laminar_ratio),
+                           [droop_pa_per_kg2_s2]])
 
 
 # -- the whole physics loop, compiled -------------------------------------------------------

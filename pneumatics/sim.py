@@ -109,6 +109,7 @@ class Simulation:
             external_leak_g=self.effects.chamber_array(robot, "external_leak_laminar_kg_s_pa"),
             piston_leak_g=self.effects.actuator_array(robot, "piston_leak_laminar_kg_s_pa"),
             supply_droop_pa_per_kg_s=self.effects.supply_droop_pa_per_kg_s,
+            supply_droop_pa_per_kg2_s2=self.effects.supply_droop_pa_per_kg2_s2,
             supply_droop_tau_s=self.effects.supply_droop_tau_s,
             supply_compressor=self.effects.compressor_array(),
             dead_volume=robot.tables.dead_volume + line_volume)

@@ -35,6 +35,7 @@ class FluidTables:
     external_leak_g: np.ndarray = None   # (n_ch,) laminar leak to the room, conductance [kg/(s Pa)]
     piston_leak_g: np.ndarray = None     # (n_act,) laminar leak across the piston [kg/(s Pa)]
     supply_droop_pa_per_kg_s: float = 0.0  # supply pressure drop per kg/s of total supply flow (effect)
+    supply_droop_pa_per_kg2_s2: float = 0.0  # ... per (kg/s)^2 of it (regulator_orifice form)
     supply_droop_tau_s: float = 0.0  # its time constant behind a receiver [s] (reservoir form; 0 = none)
     supply_compressor: np.ndarray = None  # (5,) compressor_cycling's receiver (effects.supply_droop.COMPRESSOR_FIELDS) or None
 

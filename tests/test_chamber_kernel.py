@@ -36,6 +36,7 @@ EFFECTS = {
                         "piston_leak_g": np.array([2e-11, 0.0]), "piston_leak_m2": np.array([1e-8, 0.0])},
     "supply_droop": {"supply_droop_pa_per_kg_s": 3e7},
     "supply_reservoir": {"supply_droop_pa_per_kg_s": 3e7, "supply_droop_tau_s": 0.004},
+    "regulator_orifice": {"supply_droop_pa_per_kg2_s2": 5e10, "supply_droop_tau_s": 0.004},
     "line_volume": {"extra_volume_m3": np.array([0.0, 2e-6, 1e-6, 0.0])},
     "wall_compliance": {"wall_compliance_m3_pa": np.array([0.0, 2e-12, 0.0, 5e-13]), "piston_leak_m2": np.array([0.0, 2e-8])},
     "heat_transfer": {"heat_w_k": np.array([0.2, np.nan, 0.05, 0.3])},
@@ -83,7 +84,7 @@ def experiment():
 
 
 @pytest.mark.parametrize("effect", ["nominal", "valve_leak", "piston_leak", "supply_droop", "supply_reservoir",
-                                    "heat_transfer_with_leaks",
+                                    "regulator_orifice", "heat_transfer_with_leaks",
                                     "laminar_leaks", "wall_compliance"])
 def test_compiled_replay_matches_the_numpy_replay(experiment, effect, monkeypatch):
     """A whole pressure replay (1 s windows over 4 s of a published recording) through the compiled loop

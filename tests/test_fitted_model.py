@@ -69,6 +69,8 @@ CASES = [
      "pressure_offset_pa", "elbow.a", -2000.0),
     (effect("angle_sensor_offset", "additive", {"joint": "elbow"}, offset_rad=0.03), "angle_offset_rad", "elbow", 0.03),
     (effect("supply_droop", "linear", {"supply": "all"}, droop_pa_per_kg_s=2e7), "supply_droop_pa_per_kg_s", None, 2e7),
+    (effect("supply_droop", "regulator_orifice", {"supply": "all"}, droop_pa_per_kg2_s2=1e11, time_constant_s=0.05),
+     "supply_droop_pa_per_kg2_s2", None, 1e11),
     (effect("backlash", "dead_zone", {"joint": "elbow"}, gap_rad=0.02), "backlash", "elbow", {"gap_rad": 0.02}),
     (effect("coulomb_friction", "coulomb", {"joint": "shoulder"}, coulomb_nm=0.04), "friction", "shoulder",
      {"coulomb_nm": 0.04}),
@@ -156,6 +158,8 @@ def test_the_simulator_and_the_doctors_replay_get_the_same_pneumatic_value(arm2,
                                                         *eff.drift_arrays(arm2)]),
                                         np.concatenate([pm.sensor_offset_pa, pm.sensor_drift_pa, pm.sensor_drift_tau_s])),
              "supply_droop_pa_per_kg_s": lambda: (eff.supply_droop_pa_per_kg_s, pm.supply_droop_pa_per_kg_s),
+             "supply_droop_pa_per_kg2_s2": lambda: ([eff.supply_droop_pa_per_kg2_s2, eff.supply_droop_tau_s],
+                                                    [pm.supply_droop_pa_per_kg2_s2, pm.supply_droop_tau_s]),
              "backlash": lambda: ([eff.backlash["elbow"]["gap_rad"]], [pm.backlash_rad[1]])}
     sim_value, replay_value = pairs[attr]()
     np.testing.assert_allclose(np.asarray(sim_value, float), np.asarray(replay_value, float), rtol=1e-12)

@@ -154,6 +154,23 @@ def test_fast_and_reference_agree_with_every_kernel_effect_on(rng, droop_tau_s):
     assert runs[0][:, -1].min() < 6.9e5  # the supply really drooped
 
 
+@pytest.mark.parametrize("tau_s", [0.0, 0.03])
+def test_a_regulator_orifice_droops_with_the_flow_squared_fast_and_reference_alike(rng, tau_s):
+    """supply_droop, regulator_orifice: p_s = nominal - k2 m_f^2; the compiled step keeps the drop
+    in effect and recovers the filtered flow from it (effects.supply_droop.flow_of_droop)."""
+    from pneumatics.effects.effect_set import EffectSet
+    from pneumatics.effects.supply_droop import flow_of_droop
+    effects = EffectSet().add("supply_droop", "all", {"droop_pa_per_kg2_s2": 5e10, "time_constant_s": tau_s},
+                              form="regulator_orifice")
+    commands = rng.uniform(0, 10, (30, 4))
+    runs = [_traced(kern, effects, commands) for kern in ("fast", "reference")]
+    np.testing.assert_allclose(runs[0], runs[1], rtol=1e-8, atol=1e-9)
+    drop = 7e5 - runs[0][:, -1]
+    assert drop.max() > 2e4  # it drooped, by 5e10 x (draw)^2
+    m = np.array([flow_of_droop(d, 0.0, 5e10) for d in drop])
+    np.testing.assert_allclose(5e10 * m ** 2, drop, rtol=1e-12)
+
+
 def test_a_switched_compressor_saws_the_supply_between_its_limits_fast_and_reference_alike(rng):
     """supply_droop's compressor_cycling form: a 0.2 L receiver, 0.3 bar band, the valves
     pumping: the supply pressure falls to the cut-in pressure, the compressor refills it to the

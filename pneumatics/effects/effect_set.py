@@ -19,7 +19,7 @@ from .supply_droop import COMPRESSOR_FIELDS
 from .valve_leak import UNDERLAP_WIDTH_V, WIDTH_V
 
 #: the supply's fields: one supply, so one form of supply_droop at a time
-SUPPLY_FIELDS = ("supply_droop_pa_per_kg_s", "supply_droop_tau_s", *COMPRESSOR_FIELDS)
+SUPPLY_FIELDS = ("supply_droop_pa_per_kg_s", "supply_droop_pa_per_kg2_s2", "supply_droop_tau_s", *COMPRESSOR_FIELDS)
 
 
 @dataclass
@@ -64,9 +64,11 @@ class EffectSet:
     (1 + scale_error) qd [-] (angle_sensor_offset, offset_and_scale form)"""
     supply_droop_pa_per_kg_s: float = 0.0
     """supply pressure drop per kg/s of the total flow the valves draw (supply_droop)"""
+    supply_droop_pa_per_kg2_s2: float = 0.0
+    """supply pressure drop per (kg/s)^2 of that flow (supply_droop, regulator_orifice form)"""
     supply_droop_tau_s: float = 0.0
     """time constant [s] of the receiver behind the regulator: the droop follows the total flow
-    low-passed with it (supply_droop, reservoir form; 0 = the linear form)"""
+    low-passed with it (supply_droop, reservoir and regulator_orifice forms; 0 = no receiver)"""
     supply_receiver_m3: float = 0.0
     """volume of the receiver a switched compressor refills (supply_droop, compressor_cycling
     form; 0 = none): the supply pressure is the receiver's"""
@@ -213,7 +215,7 @@ class EffectSet:
 
     @property
     def has_supply_effect(self) -> bool:
-        return bool(self.supply_droop_pa_per_kg_s or self.supply_receiver_m3)
+        return bool(self.supply_droop_pa_per_kg_s or self.supply_droop_pa_per_kg2_s2 or self.supply_receiver_m3)
 
     def compressor_array(self) -> np.ndarray | None:
         """(5,) the compressor_cycling form's values in COMPRESSOR_FIELDS order, None when off."""
@@ -225,5 +227,5 @@ class EffectSet:
                         self.external_leak_laminar_kg_s_pa, self.piston_leak_laminar_kg_s_pa,
                         self.valve_hysteresis_v, self.pressure_offset_pa, self.pressure_drift, self.angle_offset_rad,
                         self.angle_scale_error,
-                        self.supply_droop_pa_per_kg_s, self.supply_receiver_m3, self.valve_lag_s, self.valve_slew_s, self.line_dynamics, self.end_stop,
+                        self.supply_droop_pa_per_kg_s, self.supply_droop_pa_per_kg2_s2, self.supply_receiver_m3, self.valve_lag_s, self.valve_slew_s, self.line_dynamics, self.end_stop,
                         self.heat_transfer, self.backlash))

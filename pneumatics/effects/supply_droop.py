@@ -14,6 +14,13 @@ capacitance V / (R T))::
     V / (R T) dp/dt = (p_nominal - p) / k - m_total
     =>  p_supply = p_nominal - k m_f,   tau dm_f/dt = m_total - m_f,   tau = k V / (R T)   (reservoir)
 
+A regulator whose seat passes the flow as an orifice close to its set pressure (subsonic, the
+pressure ratio near 1) drops the pressure with the flow squared, m = C_d A sqrt(2 rho dp)
+(Beater 2007, ch. 2 and §4.2; ISO 6358-1's subsonic branch as the ratio tends to 1), behind the
+same receiver::
+
+    p_supply = p_nominal - k2 m_f^2,   tau dm_f/dt = m_total - m_f              (regulator_orifice)
+
 A compressor whose pressure switch runs it between a cut-in and a cut-out pressure fills a
 receiver the valves and the system's leaks drain (Beater 2007, ch. 2: compressed-air supply;
 the receiver isothermal)::
@@ -36,9 +43,27 @@ import numpy as np
 from .family import Family, param
 
 
-def supply_pressure(nominal_pa: float, droop_pa_per_kg_s: float, supply_flows_kg_s) -> float:
+def droop_pa(flow_kg_s, droop_pa_per_kg_s: float, droop_pa_per_kg2_s2: float = 0.0):
+    """The supply's pressure drop [Pa] at a total (filtered) draw ``flow_kg_s`` >= 0: k m + k2 m^2."""
+    return droop_pa_per_kg_s * flow_kg_s + droop_pa_per_kg2_s2 * flow_kg_s * flow_kg_s
+
+
+def flow_of_droop(drop_pa: float, droop_pa_per_kg_s: float, droop_pa_per_kg2_s2: float = 0.0) -> float:
+    """The draw [kg/s] a pressure drop ``drop_pa`` >= 0 stands for: :func:`droop_pa` inverted
+    (the positive root; the simulator keeps the drop in effect, the reservoir's filter the flow)."""
+    k, k2 = droop_pa_per_kg_s, droop_pa_per_kg2_s2
+    if drop_pa <= 0.0:
+        return 0.0
+    if k2 <= 0.0:
+        return drop_pa / k
+    return 2.0 * drop_pa / (k + float(np.sqrt(k * k + 4.0 * k2 * drop_pa)))  # no cancellation at k2 m << k
+
+
+def supply_pressure(nominal_pa: float, droop_pa_per_kg_s: float, supply_flows_kg_s,
+                    droop_pa_per_kg2_s2: float = 0.0) -> float:
     """Supply pressure [Pa] in effect when the valves draw ``supply_flows_kg_s`` [kg/s] (n,)."""
-    return nominal_pa - droop_pa_per_kg_s * float(np.maximum(supply_flows_kg_s, 0.0).sum())
+    return nominal_pa - droop_pa(float(np.maximum(supply_flows_kg_s, 0.0).sum()), droop_pa_per_kg_s,
+                                 droop_pa_per_kg2_s2)
 
 
 def filtered_flow(previous_kg_s: float, total_kg_s: float, tau_s: float, dt_s: float) -> float:
@@ -61,6 +86,17 @@ class Reservoir:
 
     droop_pa_per_kg_s: float = param(0.0, "steady pressure drop per kg/s of total supply flow", "Pa/(kg/s)", 0.0, 1e10)
     time_constant_s: float = param(0.05, "time constant of the receiver behind the regulator", "s", 0.0, 10.0,
+                                   magnitude=False)
+
+
+@dataclass(frozen=True)
+class RegulatorOrifice:
+    """A regulator whose seat is an orifice: the pressure falls with the square of the total flow
+    low-passed by the receiver behind it."""
+
+    droop_pa_per_kg2_s2: float = param(0.0, "pressure drop per (kg/s)^2 of total supply flow", "Pa/(kg/s)^2",
+                                       0.0, 1e14)
+    time_constant_s: float = param(0.0, "time constant of the receiver behind the regulator", "s", 0.0, 10.0,
                                    magnitude=False)
 
 
@@ -99,10 +135,12 @@ COMPRESSOR_FIELDS = ("supply_receiver_m3", "supply_compressor_kg_s", "supply_ban
 class SupplyDroop(Family):
     name = "supply_droop"
     place_kind = "supply"
-    forms = {"linear": Linear, "reservoir": Reservoir, "compressor_cycling": CompressorCycling}
-    physics = ("p_supply = nominal - k x total supply mass flow (low-passed with tau behind a receiver); "
-               "or a receiver a switched compressor refills")
-    sources = "ISO 6953-2 (regulator flow characteristic); Beater 2007 §4.2 and ch. 2 (receiver, compressor)"
+    forms = {"linear": Linear, "reservoir": Reservoir, "compressor_cycling": CompressorCycling,
+             "regulator_orifice": RegulatorOrifice}
+    physics = ("p_supply = nominal - k x total supply mass flow (low-passed with tau behind a receiver), or "
+               "- k2 x its square (a regulator's orifice); or a receiver a switched compressor refills")
+    sources = ("ISO 6953-2 (regulator flow characteristic); Beater 2007 §4.2 and ch. 2 (receiver, compressor, "
+               "regulator orifice)")
     simulator = "supply pressure per step from the last step's flows, filtered with tau, or the receiver's (kernel)"
     doctor = "pressure_replay"
     plants = ("valve_arm", "jetpipe")
@@ -110,7 +148,8 @@ class SupplyDroop(Family):
     def effect_set_entry(self, params):
         if isinstance(params, CompressorCycling):
             return dict(zip(COMPRESSOR_FIELDS, dataclasses.astuple(params)))
-        return {"supply_droop_pa_per_kg_s": params.droop_pa_per_kg_s,
+        return {"supply_droop_pa_per_kg_s": getattr(params, "droop_pa_per_kg_s", 0.0),
+                "supply_droop_pa_per_kg2_s2": getattr(params, "droop_pa_per_kg2_s2", 0.0),
                 "supply_droop_tau_s": getattr(params, "time_constant_s", 0.0)}
 
     def mods_entry(self, params):

@@ -89,6 +89,8 @@ PRESSURE_CASES = [
     # ones: 0.1-0.9 kPa where the valves draw hard (supply_droop.py)
     ("supply_droop", "linear", "all", {"droop_pa_per_kg_s": 8e7}, 400.0, 5.0),
     ("supply_droop", "reservoir", "all", {"droop_pa_per_kg_s": 8e7, "time_constant_s": 0.05}, 400.0, 5.0),
+    # a regulator's orifice: 25 kPa at a draw of 5e-4 kg/s, 100 kPa at 1e-3
+    ("supply_droop", "regulator_orifice", "all", {"droop_pa_per_kg2_s2": 1e11, "time_constant_s": 0.05}, 400.0, 5.0),
     # the receiver integrated along the recording from the simulator's start (cut-out, off) at
     # the measured pressures' flows: a 0.2 L receiver, 0.2 bar band, cycling every ~0.5 s
     ("supply_droop", "compressor_cycling", "all", {"receiver_volume_m3": 2e-4, "compressor_kg_s": 1.5e-3,

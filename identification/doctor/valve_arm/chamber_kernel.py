@@ -25,7 +25,7 @@ import math
 import numba
 import numpy as np
 
-from pneumatics.kernel import GAMMA, orifice_flow_compiled
+from pneumatics.kernel import GAMMA, QUADRATIC_DROOP, orifice_flow_compiled
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -145,7 +145,7 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
     over the step at their start-of-step flows, as in ChamberModel._thermal_step (a compliant
     ``wall`` (C,) [m^3/Pa] is not carried there: the check that uses it fits no heat transfer)."""
     W, C = p.shape
-    dt, droop = glob[10], glob[12]
+    dt, droop, droop2 = glob[10], glob[12], glob[QUADRATIC_DROOP]
     follow = dt / (glob[14] + dt)  # the reservoir form's low-pass of the supply flow (effects.supply_droop)
     a_s, a_e = np.empty(C), np.empty(C)
     vol, vdot = np.empty(C), np.empty(C)
@@ -153,7 +153,7 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
     m_s, m_s1 = np.empty(C), np.empty(C)
     k1, q1 = np.empty(C), np.empty(C)
     for w in range(W):
-        ps = (glob[8] - droop * m_supply[w] if droop > 0.0 else glob[8]) + supply_shift[w]
+        ps = glob[8] - (droop * m_supply[w] + droop2 * m_supply[w] * m_supply[w]) + supply_shift[w]
         for c in range(C):
             a_s[c], a_e[c] = _valve(u[w, c], rows[c], supply_scale[c], exhaust_scale[c], valve_leak_m2[c],
                                    valve_leak_exhaust_m2[c], leak_width_v, underlap_m2[c], underlap_width_v[c])

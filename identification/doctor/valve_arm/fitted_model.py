@@ -133,6 +133,7 @@ _PNEUMATIC_FORMS = {
     ("pressure_sensor_offset", "warm_up_drift"): ("offset_pa", "drift_pa", "time_constant_s"),
     ("supply_droop", "linear"): ("droop_pa_per_kg_s",),
     ("supply_droop", "reservoir"): ("droop_pa_per_kg_s", "time_constant_s"),
+    ("supply_droop", "regulator_orifice"): ("droop_pa_per_kg2_s2", "time_constant_s"),
     ("supply_droop", "compressor_cycling"): ("receiver_volume_m3", "compressor_kg_s", "band_pa", "cut_out_pa",
                                              "leak_kg_s_pa"),
     ("backlash", "dead_zone"): ("gap_rad",),

@@ -38,6 +38,7 @@ from scipy.signal import lfilter
 
 from identification.base.smoothing import discrepancy_lambda
 
+from pneumatics.effects.supply_droop import droop_pa
 from pneumatics.medium import orifice_flow
 
 from .data import FINE_DT, Experiment, fine_pressures
@@ -94,6 +95,7 @@ class _Valves:
         self.tab, self.mods, self.p, self.gas = tab, mods, p, tab.gas
         self.ps = np.full((p.shape[0], 1), tab.supply_pa)
         self._droop = float(mods.supply_droop_pa_per_kg_s)
+        self._droop2 = float(mods.supply_droop_pa_per_kg2_s2)
         self._droop_tau = float(mods.supply_droop_tau_s)
 
     def flows(self, u, derivative: bool = True):
@@ -101,12 +103,12 @@ class _Valves:
         (None without ``derivative``)."""
         a_s, a_e = model_areas(self.tab, self.mods, u)
         ps = self.ps
-        if self._droop > 0:  # the supply pressure the model's own total supply flow leaves
+        if self._droop > 0 or self._droop2 > 0:  # the supply pressure the model's own total supply flow leaves
             m0 = orifice_flow(a_s, ps, self.p, self.gas, derivatives=False)[0]
             total = np.maximum(m0, 0).sum(axis=1, keepdims=True)
             if self._droop_tau > 0:  # behind a receiver (effects.supply_droop, reservoir form)
                 total = lowpass(total, self._droop_tau)
-            ps = ps - self._droop * total
+            ps = ps - droop_pa(total, self._droop, self._droop2)
         m_s, d_ps, _ = orifice_flow(a_s, ps, self.p, self.gas, derivatives=derivative)
         m_e = orifice_flow(a_e, self.p, self.tab.room_pa, self.gas, derivatives=False)[0]
         return m_s, m_e, d_ps

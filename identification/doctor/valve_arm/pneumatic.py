@@ -22,7 +22,7 @@ from pneumatics.effects.pressure_sensor_offset import offset_at
 from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play, slew_limited
 from pneumatics.effects.valve_lag import slew_step_v
 from pneumatics.effects.valve_leak import UNDERLAP_WIDTH_V, WIDTH_V, leak_areas, underlap_areas
-from pneumatics.effects.supply_droop import filtered_flow
+from pneumatics.effects.supply_droop import droop_pa, filtered_flow
 from pneumatics.kernel import pack_glob
 from pneumatics.medium import orifice_flow
 from pneumatics.valve import valve_areas
@@ -61,6 +61,7 @@ class PneumaticMods:
     sensor_drift_pa: np.ndarray = None        # + drift (1 - exp(-t / tau)), a sensor warming up
     sensor_drift_tau_s: np.ndarray = None     # its time constant tau [s] (0: no drift)
     supply_droop_pa_per_kg_s: float = 0.0     # supply pressure drop per kg/s of total supply flow
+    supply_droop_pa_per_kg2_s2: float = 0.0   # ... per (kg/s)^2 of it (regulator_orifice)
     supply_droop_tau_s: float = 0.0           # ... that flow low-passed with this time constant [s] (reservoir)
     supply_receiver_m3: float = 0.0           # compressor_cycling: the receiver's volume (0: none) ...
     supply_compressor_kg_s: float = 0.0       # ... the compressor's delivery [kg/s]
@@ -226,7 +227,7 @@ class ChamberModel:
             return np.ascontiguousarray(full[own_cylinders])
 
         glob = pack_glob(self.gas, tab.supply_pa, tab.room_pa, FINE_DT, float(mods.supply_droop_pa_per_kg_s),
-                         float(mods.supply_droop_tau_s))
+                         float(mods.supply_droop_tau_s), droop_pa_per_kg2_s2=float(mods.supply_droop_pa_per_kg2_s2))
         return (np.ascontiguousarray(np.array(tab.valve, float)[own]), per(mods.supply_scale), per(mods.exhaust_scale),
                 per(mods.valve_leak_m2), per(mods.valve_leak_exhaust()), float(mods.valve_leak_width_v),
                 per(mods.valve_underlap_m2), per(mods.valve_underlap_width_v, UNDERLAP_WIDTH_V),
@@ -299,7 +300,7 @@ class ChamberModel:
         reservoir form's low-passed flow; returns the compressor's receiver path (F,) [Pa],
         None without one (:meth:`follow_supply` reads it every step)."""
         mods = self.mods
-        if mods.supply_droop_pa_per_kg_s > 0 and mods.supply_droop_tau_s > 0:
+        if has_droop(mods) and mods.supply_droop_tau_s > 0:
             self.set_supply_flow(filtered_supply_flow(exp, self, u_fine)[first])
         return receiver_trajectory(exp, self, u_fine)
 
@@ -324,8 +325,9 @@ class ChamberModel:
         a_s, a_e = self.areas(u)
         vol = self.dead + tab.area * 0.5 * (travel0 + travel1)
         vdot = tab.area * (travel1 - travel0) / FINE_DT
-        droop = mods.supply_droop_pa_per_kg_s > 0
-        ps = tab.supply_pa - mods.supply_droop_pa_per_kg_s * self.m_supply_total if droop else tab.supply_pa
+        droop = has_droop(mods)
+        ps = (tab.supply_pa - droop_pa(self.m_supply_total, mods.supply_droop_pa_per_kg_s, mods.supply_droop_pa_per_kg2_s2)
+              if droop else tab.supply_pa)
         ps = ps + self.supply_shift[:W, None]
         room, rt, n = tab.room_pa, self.rt, self.n
 
@@ -447,7 +449,13 @@ def chambers_independent(mods: PneumaticMods) -> bool:
     no supply pressure that falls with their summed flow (supply_droop) and no compressor's
     receiver integrated from it.  The valves, leaks, volumes, gas temperatures and sensors are
     each chamber's own; a piston leak joins a cylinder's two chambers."""
-    return not mods.supply_droop_pa_per_kg_s > 0 and compressor_of(mods) is None
+    return not has_droop(mods) and compressor_of(mods) is None
+
+
+def has_droop(mods: PneumaticMods) -> bool:
+    """Whether the supply pressure falls with the total flow (supply_droop, linear, reservoir or
+    regulator_orifice form)."""
+    return mods.supply_droop_pa_per_kg_s > 0 or mods.supply_droop_pa_per_kg2_s2 > 0
 
 
 def cylinder_chambers(chambers) -> np.ndarray:
