@@ -122,6 +122,13 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
     out.append(Hypothesis("supply_droop", {"supply": "all"}, "pneumatic",
                           [("droop_pa_per_kg_s", 0.0, 0.0, 5e8, 5e6), ("time_constant_s", 0.02, 0.0, 1.0, 0.01)],
                           list(range(C)), apply=_apply("supply_droop", robot, "all", "reservoir"), tested=(0,)))
+    # a regulator whose seat is an orifice near its set pressure droops with the flow squared
+    # (effects.supply_droop, regulator_orifice): 1e10-1e12 Pa/(kg/s)^2 for seats of 1.5-0.3 mm^2
+    # at arm2's draws of a few 1e-4 kg/s (tens of kPa), behind the same receiver
+    out.append(Hypothesis("supply_droop", {"supply": "all"}, "pneumatic",
+                          [("droop_pa_per_kg2_s2", 0.0, 0.0, 5e12, 1e10), ("time_constant_s", 0.02, 0.0, 1.0, 0.01)],
+                          list(range(C)), apply=_apply("supply_droop", robot, "all", "regulator_orifice"),
+                          tested=(0,)))
     # a receiver a switched compressor refills: its switch makes the replays jump with the
     # parameters, so it is searched in the flow errors (supply_receiver), not by the score test
     out.append(Hypothesis("supply_droop", {"supply": "all"}, "pneumatic",
