@@ -9,6 +9,19 @@ def arm2():
     return load_robot("arm2")
 
 
+@pytest.fixture(scope="session")
+def diagnose_case():
+    """The arm2 doctor's report on a made case (a truth dict of scenarios._cases or the random-form
+    generator), read from its recording files as a user would give them: main and held out."""
+    from identification.doctor.valve_arm.diagnose import diagnose
+    from pneumatics.recording import read_csv
+
+    def run(truth) -> dict:
+        return diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
+                        [read_csv(truth["recordings"]["heldout"])])
+    return run
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)

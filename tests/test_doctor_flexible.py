@@ -195,18 +195,12 @@ def test_a_fast_supply_pulsation_is_found_on_the_fine_blocks(null_calibrated):
     assert not clean.pays and clean.heldout_gain < 0.05
 
 
-def _diagnose_files(truth):
-    from identification.doctor.valve_arm.diagnose import diagnose
-    return diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
-                    [read_csv(truth["recordings"]["heldout"])])
-
-
 @pytest.mark.slow
-def test_a_clean_pneumasim_recording_is_silent(tmp_path):
+def test_a_clean_pneumasim_recording_is_silent(tmp_path, diagnose_case):
     """pneumasim's own simulator, no effect, 3 % parameter errors: no finding, no unexplained
     entry, and no flexible correction pays."""
     from scenarios._cases import make_case
-    rep = _diagnose_files(make_case(tmp_path, 21, [], seconds=40.0, heldout_seconds=20.0))
+    rep = diagnose_case(make_case(tmp_path, 21, [], seconds=40.0, heldout_seconds=20.0))
     assert rep["findings"] == [] and rep["unexplained"] == []
     flex = rep["diagnostics"]["flexible_corrections"]
     assert max(v["best_group_gain"] for k, v in flex.items() if k != "supply") < FLEX_FLOOR
@@ -215,7 +209,7 @@ def test_a_clean_pneumasim_recording_is_silent(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_valve_curve_outside_the_library_is_unexplained_at_its_chamber(tmp_path):
+def test_a_valve_curve_outside_the_library_is_unexplained_at_its_chamber(tmp_path, diagnose_case):
     """elbow a's valve opens as the 2.2 power of the command past its dead band instead of the
     model's 1.3 (pneumatics.valve.valve_areas): no family of the library changes a valve's
     curve, and the calibrated area scale fits it only on average.  The doctor names nothing
@@ -225,7 +219,7 @@ def test_a_valve_curve_outside_the_library_is_unexplained_at_its_chamber(tmp_pat
     robot, _ = perturbed_robot(np.random.default_rng(11), 0.03)
     robot.tables.valve[2, 5] = 2.2                       # elbow a: the ramp's exponent
     paths = _write(tmp_path, "case", _record(robot, None, 11, 40.0, 20.0))
-    rep = _diagnose_files({"recordings": paths})
+    rep = diagnose_case({"recordings": paths})
     assert not [f for f in rep["findings"] if f["where"] == {"actuator": "elbow", "chamber": "a"}]
     (u,) = [u for u in rep["unexplained"] if u["where"] == {"actuator": "elbow", "chamber": "a"}]
     assert u["residual"] == "mass flow" and u["share_of_residual"] > FLEX_FLOOR
@@ -234,7 +228,7 @@ def test_a_valve_curve_outside_the_library_is_unexplained_at_its_chamber(tmp_pat
 
 
 @pytest.mark.slow
-def test_a_supply_step_is_unexplained_at_the_supply(tmp_path):
+def test_a_supply_step_is_unexplained_at_the_supply(tmp_path, diagnose_case):
     """The random-form generator's supply step outside the vocabulary (seed 883927900 of the
     first fresh generalization run: -0.26 bar at 70 % of each recording): no finding, one
     unexplained entry at the supply, in time."""
@@ -243,7 +237,7 @@ def test_a_supply_step_is_unexplained_at_the_supply(tmp_path):
     truth = make_variant_case(tmp_path / "c", 883927900, ["outside_vocabulary"], seconds=60.0,
                               heldout_seconds=30.0, name="step", forms=["supply_step"])
     assert truth["effects"][0]["where"] == {"supply": "all"}
-    report = _diagnose_files(truth)
+    report = diagnose_case(truth)
     assert report["findings"] == []
     assert [(u["where"], u["regime"]) for u in report["unexplained"]] == [({"supply": "all"},
                                                                            "in time (not with the flow drawn)")]

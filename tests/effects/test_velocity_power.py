@@ -5,12 +5,9 @@ random-form generator with it, where it had named a Coulomb level plus a linear 
 import numpy as np
 import pytest
 
-from identification.doctor.valve_arm.diagnose import diagnose
 from identification.doctor.valve_arm.mechanics import torque_data
 from identification.doctor.valve_arm.profiled import velocity_power_hypotheses
 from pneumatics.effects.registry import get_family
-from pneumatics.recording import read_csv
-from pneumatics.robot import load_robot
 
 from test_roundtrip import record
 
@@ -33,7 +30,7 @@ def test_a_linear_friction_gets_an_exponent_near_one_or_no_power_law(arm2):
 
 
 @pytest.mark.slow
-def test_a_power_law_friction_of_the_random_form_generator_is_named_with_its_exponent(tmp_path):
+def test_a_power_law_friction_of_the_random_form_generator_is_named_with_its_exponent(tmp_path, diagnose_case):
     """Development seed 156117201 (exponent 0.42, b_n 0.052 N m (s/rad)^n at the elbow): named
     coulomb_friction first (0.018 N m) with a linear viscous term beside it before this form."""
     from scenarios._variantsim.cases import make_case as make_variant_case
@@ -41,8 +38,7 @@ def test_a_power_law_friction_of_the_random_form_generator_is_named_with_its_exp
     truth = make_variant_case(tmp_path / "c", 156117201, ["viscous_friction"], forms=["velocity_power"],
                               seconds=60.0, heldout_seconds=30.0, name="power")
     hidden = truth["effects"][0]
-    report = diagnose(load_robot("arm2"), [read_csv(truth["recordings"]["main"])],
-                      [read_csv(truth["recordings"]["heldout"])])
+    report = diagnose_case(truth)
     first = report["findings"][0]
     assert (first["effect"], first["form"], first["where"]) == ("viscous_friction", "velocity_power", hidden["where"])
     assert first["parameters"]["exponent"]["value"] == pytest.approx(hidden["parameters"]["exponent"], abs=0.15)
