@@ -8,7 +8,8 @@ the pressure: V = V_0 + C_w (p - p_room), so dp/dt = n (R T mdot - p dV_piston/d
 
 Before a line is named, the same chamber is fitted with a compliant wall instead (its
 compliance and the calibration, no tube): when the wall replays the recording clearly better
-than the tube (WALL_MARGIN) and the held-out pressures no worse, the extra air follows the
+than the tube (WALL_MARGIN) and the held-out pressures no worse, or the held-out pressures
+clearly better (WALL_HELDOUT_MARGIN) and the training ones no worse, the extra air follows the
 pressure, not a tube, and the place is reported ``unexplained`` with the compliance it implies.
 """
 from __future__ import annotations
@@ -31,6 +32,13 @@ WALL_PROBE_M3_PA, WALL_MAX_M3_PA = 1e-12, 2e-11
 #: the vocabulary's family.  On development recordings of the random-form generator
 #: (2026-11-27) compliant walls gave 2.3-12 %, lumped RLC lines -1 to 0.4 %
 WALL_MARGIN = 0.02
+#: or the share of the held-out mean-square replay error the wall removes beyond the tube's,
+#: the training error no worse: the wall's physics carries over to a recording it was not
+#: fitted to, a tube's volume standing in for it less well.  Development recordings of fresh
+#: runs 26-29 (looked at after reporting): three compliant walls 10-18 %, one at 0.8 % in
+#: training (seed 646247227, named a delay-free line before); five lines with a fitted delay
+#: under 1.1 ms (lumped RLC, Richer-Hurmuzlu) at most 0.7 %, the rest worse than the tube
+WALL_HELDOUT_MARGIN = 0.05
 
 
 def _wall_hypothesis(where: dict, c: int) -> Hypothesis:
@@ -44,14 +52,18 @@ def _wall_hypothesis(where: dict, c: int) -> Hypothesis:
 
 def compliant_wall(run: DoctorRun, finding: Finding) -> dict | None:
     """The unexplained entry of ``finding``'s chamber when a compliant wall replays it clearly
-    better than the line does (WALL_MARGIN), else None."""
+    better than the line does (WALL_MARGIN in training or WALL_HELDOUT_MARGIN held out), else
+    None."""
     line = finding.scored
     c = line.hyp.chambers[0]
     wall = Scored(_wall_hypothesis(finding.where, c), 0.0)
     fit_pneumatic(wall, run.exp, run.fit_win, run.mods, run.sigma)
     after = chamber_rms(run.held, run.win_h, wall.mods)[c]
     train_wall, train_line = (chamber_rms(run.exp, run.win, m)[c] for m in (wall.mods, line.mods))
-    if after > line.heldout_after[c] or train_wall ** 2 > (1.0 - WALL_MARGIN) * train_line ** 2:
+    held_line = line.heldout_after[c]
+    clear_in_training = train_wall ** 2 <= (1.0 - WALL_MARGIN) * train_line ** 2 and after <= held_line
+    clear_held_out = after ** 2 <= (1.0 - WALL_HELDOUT_MARGIN) * held_line ** 2 and train_wall <= train_line
+    if not (clear_in_training or clear_held_out):
         return None
     value, se = float(wall.fit.values[-1]), float(wall.fit.stderr[-1])
     before = line.heldout_before[c]
