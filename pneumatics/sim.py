@@ -472,7 +472,7 @@ class Simulation:
         else:
             self.pressure[:] = fluid_step_areas(tab, p_old, self.areas[:, 0], self.areas[:, 1], prev, length,
                                                 self.dt, supply)
-            self._supply_after(p_old)
+            self._supply_after(self.pressure)  # at the step's end, as the compiled step and _fluid_update
             self._prev_length[:] = length
         volume, volume_rate = chamber_geometry(tab, prev, length, self.dt)
         extra = leak_flows(tab, p_old)
