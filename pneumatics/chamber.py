@@ -32,6 +32,7 @@ from .effects.external_leak import laminar_flow
 from .effects.piston_leak import piston_leak_flow
 from .effects.supply_droop import (CompressorCycling, droop_pa, filtered_flow, flow_of_droop, receiver_step,
                                    supply_pressure)
+from .effects.valve_leak import clearance_flows
 from .medium import GasCfg, orifice_flow
 from .tables import FluidTables, valve_areas_table
 from .valve import valve_areas
@@ -111,14 +112,17 @@ def fluid_step(tables: FluidTables, p, command_v, prev_length, length, dt):
     return fluid_step_areas(tables, p, a_s, a_e, prev_length, length, dt)
 
 
-def fluid_step_areas(tables: FluidTables, p, a_supply, a_exhaust, prev_length, length, dt, supply_pa=None):
+def fluid_step_areas(tables: FluidTables, p, a_supply, a_exhaust, prev_length, length, dt, supply_pa=None,
+                     clearance=None):
     """:func:`fluid_step` with the valves' (n_ch,) supply and exhaust areas [m^2] given, and
-    the supply pressure in effect (``supply_pa``, default the nominal one; see supply_flow)."""
+    the supply pressure in effect (``supply_pa``, default the nominal one; see supply_flow);
+    ``clearance`` (n_ch, 2) the valves' land conductances of the valve_leak's clearance form
+    [kg/(s Pa)] at the present spool positions, or None."""
     a_s, a_e = a_supply, a_exhaust
     volume, volume_rate = chamber_geometry(tables, prev_length, length, dt)
     ps = tables.supply_pa if supply_pa is None else supply_pa
     return integrate(p, volume, volume_rate, a_s, a_e, tables.gas, ps, tables.room_pa, dt,
-                     leak_flows(tables, p))
+                     leak_flows(tables, p, clearance, ps))
 
 
 def supply_pressure_after(tables: FluidTables, p, a_supply, previous_pa: float | None = None,
@@ -149,10 +153,12 @@ def receiver_after(tables: FluidTables, p, a_supply, previous_pa: float, running
                          tables.room_pa, dt)
 
 
-def leak_flows(tables: FluidTables, p):
+def leak_flows(tables: FluidTables, p, clearance=None, supply_pa: float | None = None):
     """(n_ch,) mass flows [kg/s] into each chamber from the leak effects: to the room
     (external_leak) and across the piston a -> b (piston_leak), orifices and laminar gaps.  Equal and opposite across a
-    piston, so a piston leak conserves the cylinder's air."""
+    piston, so a piston leak conserves the cylinder's air.  ``clearance`` (n_ch, 2): the valves'
+    land conductances [kg/(s Pa)] of valve_leak's clearance form, their flows from the supply
+    at ``supply_pa`` (default the nominal) and to the room (effects.valve_leak.clearance_flows)."""
     m = -orifice_flow(tables.external_leak_m2, p, tables.room_pa, tables.gas)[0]
     # the laminar form (effects.external_leak.laminar_flow)
     m = m - laminar_flow(tables.external_leak_g, p, tables.room_pa, tables.room_pa)[0]
@@ -160,6 +166,9 @@ def leak_flows(tables: FluidTables, p):
                             tables.room_pa)[0]
     m[0::2] -= m_ab
     m[1::2] += m_ab
+    if clearance is not None:
+        ps = tables.supply_pa if supply_pa is None else supply_pa
+        m = m + clearance_flows(clearance[:, 0], clearance[:, 1], p, ps, tables.room_pa)[0]
     return m
 
 

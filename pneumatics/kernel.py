@@ -8,9 +8,12 @@ Table layouts (from :meth:`pneumatics.tables.FluidTables.packed`):
   act  (n_act, 7): area_a, area_b, stroke, length_zero, MuJoCo actuator id (= ctrl index),
                    piston (a -> b) leak area [m^2] (effect piston_leak, 0 = none),
                    its laminar form's conductance [kg/(s Pa)] (0 = none)
-  ch   (n_ch, 14): area, dead volume, is_a, actuator index, 8 valve columns,
+  ch   (n_ch, 16): area, dead volume, is_a, actuator index, 8 valve columns,
                    leak area to the room [m^2] (effect external_leak, 0 = none),
-                   its laminar form's conductance [kg/(s Pa)] (0 = none)
+                   its laminar form's conductance [kg/(s Pa)] (0 = none), the valve's
+                   supply-land and exhaust-land clearance conductances [kg/(s Pa)] at the
+                   spool's present position (valve_leak, clearance form; written by the
+                   command path, 0 = none)
   fric (n_f, 7):   dof address, Coulomb [N m], extra breakaway [N m], Stribeck velocity
                    [rad/s], viscous [N m s/rad], velocity-power coefficient [N m (s/rad)^n] and
                    exponent n (effects coulomb_friction, stiction, viscous_friction)
@@ -193,7 +196,8 @@ def _receiver_step(p, areas, glob):
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def _leak_flows(p, act, ch, glob, m_extra):
     """m_extra[i] = the leak flows into chamber i [kg/s], explicit over the step (their time
-    constants >> dt): to the room (external_leak) and across the piston (piston_leak)."""
+    constants >> dt): to the room (external_leak), across the piston (piston_leak) and through
+    the valve's clearance from the supply in effect and to the room (valve_leak, clearance)."""
     m_extra[:] = 0.0
     for i in range(ch.shape[0]):
         if ch[i, 12] > 0.0:
@@ -201,6 +205,9 @@ def _leak_flows(p, act, ch, glob, m_extra):
             m_extra[i] -= m_x
         if ch[i, 13] > 0.0:  # laminar: G (p^2 - p_room^2) / (2 p_room) (effects.external_leak)
             m_extra[i] -= ch[i, 13] * (p[i] - glob[9]) * (p[i] + glob[9]) / (2.0 * glob[9])
+        if ch[i, 14] > 0.0 or ch[i, 15] > 0.0:  # a valve's clearance (effects.valve_leak.clearance_flows)
+            m_extra[i] += (ch[i, 14] * (glob[13] - p[i]) * (glob[13] + p[i])
+                           - ch[i, 15] * (p[i] - glob[9]) * (p[i] + glob[9])) / (2.0 * glob[9])
     for j in range(act.shape[0]):
         if act[j, 5] > 0.0:
             m_ab, _, _ = orifice_flow_compiled(act[j, 5], p[2 * j], p[2 * j + 1], glob)
@@ -319,7 +326,8 @@ def pack(tables, ctrl_index, dt):
     act, ch, glob = tables.packed()
     act = np.ascontiguousarray(np.column_stack([act, np.asarray(ctrl_index, float), tables.piston_leak_m2,
                                                 tables.piston_leak_g]))
-    ch = np.ascontiguousarray(np.column_stack([ch, tables.external_leak_m2, tables.external_leak_g]))
+    clearance = np.zeros((ch.shape[0], 2))  # the command path writes a valve's clearance here
+    ch = np.ascontiguousarray(np.column_stack([ch, tables.external_leak_m2, tables.external_leak_g, clearance]))
     return act, ch, pack_glob(tables.gas, tables.supply_pa, tables.room_pa, dt, tables.supply_droop_pa_per_kg_s,
                               tables.supply_droop_tau_s, tables.supply_compressor, tables.supply_droop_pa_per_kg2_s2)
 

@@ -38,7 +38,7 @@ from .effects.friction import friction_torque
 from .effects.heat_transfer import thermal_step
 from .effects.valve_hysteresis import play_step
 from .effects.valve_lag import lag_decay, slew_step_v
-from .effects.valve_leak import leak_areas, underlap_areas
+from .effects.valve_leak import clearance_conductances, leak_areas, underlap_areas
 from . import arguments
 from .errors import ArgumentError, PneumasimError
 from .command_kernel import CLIPPED, OK
@@ -128,7 +128,9 @@ class Simulation:
         self._underlap_m2, self._underlap_v = self.effects.underlap_arrays(robot)
         # an underlapped valve's areas are set by the numpy command path (_update_areas); the
         # compiled command step knows the Gaussian leak alone
-        self._numpy_command = bool(self._underlap_m2.any())
+        # valve_leak (clearance): the lands' laminar conductances follow the spool, set there too
+        self._clearance_g, self._clearance_v = self.effects.clearance_arrays(robot)
+        self._numpy_command = bool(self._underlap_m2.any() or self._clearance_g.any())
         self._hysteresis = self.effects.chamber_array(robot, "valve_hysteresis_v")
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
         self._p_drift, self._p_drift_tau = self.effects.drift_arrays(robot)
@@ -152,9 +154,13 @@ class Simulation:
         self.pressure = np.full(n_ch, self.tables.room_pa)
         self.command = np.array(self.tables.valve[:, 0])  # each valve's null
         self.areas = np.zeros((n_ch, 2))  # valve (supply, exhaust) areas [m^2] at self.command
+        #: the valves' (supply, exhaust) land clearance conductances [kg/(s Pa)] at the spool
+        #: (valve_leak, clearance form; zero without): a view of the kernel's chamber table
+        self.clearance = None
         self._ids = robot.actuator_ids
         self._prev_length = np.zeros(self._ids.size)
         self._packed = pack(self.tables, self._ids, self.model.opt.timestep)
+        self.clearance = self._packed[1][:, 14:16]
         # the link joints' addresses in this simulation's model (backlash adds drive joints)
         self._qadr, self._dadr = addresses(self.model, robot.joint_names)
         self._drive = drive_pairs(self.model, robot.joint_names)  # (k, gap, qpos adr, dof adr)
@@ -323,6 +329,9 @@ class Simulation:
         if self._numpy_command:  # valve_leak (underlap): the opening land stays open by the underlap
             lap_s, lap_e = underlap_areas(spool, self.tables.valve[:, 0], self._underlap_m2, self._underlap_v)
             a_s, a_e = a_s + lap_s, a_e + lap_e
+            # valve_leak (clearance): each land's laminar conductance over its covered length
+            self.clearance[:, 0], self.clearance[:, 1] = clearance_conductances(
+                spool, self.tables.valve[:, 0], self._clearance_g, self._clearance_v)
         self.areas[:, 0], self.areas[:, 1] = a_s, a_e
 
     # -- stepping ------------------------------------------------------------------------
@@ -408,7 +417,7 @@ class Simulation:
     @property
     def valve_dynamics_free(self) -> bool:
         """Whether a command sets the valve areas at once (no valve lag or line delay moving the
-        spool between commands, no underlapped valve), so that command_step is the whole of
+        spool between commands, no underlapped or clearance-sealed valve), so that command_step is the whole of
         set_command."""
         return not (self._valve_dynamics or self._numpy_command)
 
@@ -444,7 +453,8 @@ class Simulation:
                             self.data.ctrl, act, ch, glob)
         else:
             self.pressure[:] = fluid_step_areas(self.tables, self.pressure, self.areas[:, 0], self.areas[:, 1],
-                                                self._prev_length, length, self.dt, self._packed[2][13])
+                                                self._prev_length, length, self.dt, self._packed[2][13],
+                                                self.clearance)
             self._supply_after(self.pressure)
             self._prev_length[:] = length
 
@@ -471,11 +481,11 @@ class Simulation:
                             self.data.ctrl, act, ch, glob)
         else:
             self.pressure[:] = fluid_step_areas(tab, p_old, self.areas[:, 0], self.areas[:, 1], prev, length,
-                                                self.dt, supply)
+                                                self.dt, supply, self.clearance)
             self._supply_after(self.pressure)  # at the step's end, as the compiled step and _fluid_update
             self._prev_length[:] = length
         volume, volume_rate = chamber_geometry(tab, prev, length, self.dt)
-        extra = leak_flows(tab, p_old)
+        extra = leak_flows(tab, p_old, self.clearance, supply)
         p_th, t_th = thermal_step(p_old[th], self.gas_temperature[th], volume[th], volume_rate[th],
                                   self.areas[th, 0], self.areas[th, 1], tab.gas, supply, tab.room_pa,
                                   self._conductance[th], tab.gas.temperature_k, self.dt, extra[th])

@@ -318,6 +318,19 @@ def test_an_asymmetric_valve_leak_moves_the_pressure_a_closed_valve_settles_at()
     assert 2e5 < more_exhaust < same - 5e4 and same + 5e4 < more_supply < 7e5
 
 
+def test_a_valve_sealed_by_clearances_settles_a_closed_chamber_where_the_laminar_flows_balance():
+    """valve_leak, clearance form: with equal clearances at null the chamber settles where
+    G (p_s^2 - p^2) = G (p^2 - p_room^2), p = sqrt((p_s^2 + p_room^2) / 2) ~ 5.0 bar (the
+    orifice leak's settling point depends on the orifices' law instead); a wider overlap on
+    the same conductance changes nothing at null."""
+    tab = load_robot("arm2").tables
+    expected = np.sqrt((tab.supply_pa ** 2 + tab.room_pa ** 2) / 2.0)
+    for width in (0.6, 1.5):
+        effects = EffectSet().add("valve_leak", "elbow.a", {"clearance_conductance_kg_s_pa": 5e-11,
+                                                            "overlap_width_v": width}, form="clearance")
+        assert abs(_settle_at_null(effects) - expected) < 500.0
+
+
 def test_effect_sets_combine_and_refuse_one_family_at_one_place_twice():
     """A fitted model's effects and a study's (tubes on a fitted humanoid) run together; the
     same family at the same place in both is an error, not a silent choice."""

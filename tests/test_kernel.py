@@ -171,6 +171,22 @@ def test_a_regulator_orifice_droops_with_the_flow_squared_fast_and_reference_ali
     np.testing.assert_allclose(5e10 * m ** 2, drop, rtol=1e-12)
 
 
+def test_a_valve_sealed_by_clearances_leaks_fast_and_reference_alike(rng):
+    """valve_leak, clearance form: the lands' laminar conductances follow the spool (numpy
+    command path), their flows from the supply in effect (a droop on) and to the room join the
+    leak flows of both kernels; the same with the gas temperature as a state (heat_transfer)."""
+    from pneumatics.effects.effect_set import EffectSet
+    for extra in ({}, {"heat_transfer": {"elbow.a": {"conductance_w_k": 0.05}}}):
+        effects = EffectSet(supply_droop_pa_per_kg_s=5e7, **extra).add(
+            "valve_leak", "elbow.a", {"clearance_conductance_kg_s_pa": 5e-11, "overlap_width_v": 0.4}, form="clearance")
+        commands = rng.uniform(0, 10, (30, 4))
+        commands[10:20, 2] = 5.0 + rng.uniform(-0.3, 0.3, 10)  # near null, where the clearance shows most
+        runs = [_traced(kern, effects, commands) for kern in ("fast", "reference")]
+        np.testing.assert_allclose(runs[0], runs[1], rtol=1e-8, atol=1e-9)
+        without = _traced("fast", EffectSet(supply_droop_pa_per_kg_s=5e7, **extra), commands)
+        assert np.abs(runs[0][:, 2] - without[:, 2]).max() > 1e3  # it leaked
+
+
 def test_a_switched_compressor_saws_the_supply_between_its_limits_fast_and_reference_alike(rng):
     """supply_droop's compressor_cycling form: a 0.2 L receiver, 0.3 bar band, the valves
     pumping: the supply pressure falls to the cut-in pressure, the compressor refills it to the

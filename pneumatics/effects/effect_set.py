@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import ConfigError, UnknownNameError
 from .end_stop import END_STOP_TIMECONST_S
 from .supply_droop import COMPRESSOR_FIELDS
-from .valve_leak import UNDERLAP_WIDTH_V, WIDTH_V
+from .valve_leak import CLEARANCE_WIDTH_V, UNDERLAP_WIDTH_V, WIDTH_V
 
 #: the supply's fields: one supply, so one form of supply_droop at a time
 SUPPLY_FIELDS = ("supply_droop_pa_per_kg_s", "supply_droop_pa_per_kg2_s2", "supply_droop_tau_s", *COMPRESSOR_FIELDS)
@@ -37,6 +37,9 @@ class EffectSet:
     valve_underlap: dict = field(default_factory=dict)
     """chamber -> {"area_m2": area each land is open at null [m^2], "width_v": the underlap [V]}
     (valve_leak, underlap form: effects.valve_leak.underlap_areas)"""
+    valve_clearance: dict = field(default_factory=dict)
+    """chamber -> {"conductance_kg_s_pa": laminar conductance of each land at null [kg/(s Pa)],
+    "width_v": the overlap [V]} (valve_leak, clearance form: effects.valve_leak.clearance_conductances)"""
     valve_leak_width_v: float = WIDTH_V
     """command distance from null over which the valve_leak closes [V] (effects.valve_leak)"""
     external_leak_m2: dict = field(default_factory=dict)
@@ -169,6 +172,11 @@ class EffectSet:
         """(area_m2, width_v), each (n_ch,), of the underlapped valves (area 0 elsewhere)."""
         return self._chamber_fields(robot, "valve_underlap", {"area_m2": 0.0, "width_v": UNDERLAP_WIDTH_V})
 
+    def clearance_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
+        """(conductance_kg_s_pa, width_v), each (n_ch,), of the valves whose lands seal by a
+        clearance (conductance 0 elsewhere)."""
+        return self._chamber_fields(robot, "valve_clearance", {"conductance_kg_s_pa": 0.0, "width_v": CLEARANCE_WIDTH_V})
+
     def drift_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
         """(drift_pa, time_constant_s), each (n_ch,), of the warming-up pressure sensors
         (time constant 0, no drift, elsewhere)."""
@@ -223,7 +231,8 @@ class EffectSet:
 
     @property
     def empty(self) -> bool:
-        return not any((self.friction, self.valve_leak_m2, self.valve_leak_exhaust_m2, self.valve_underlap, self.external_leak_m2, self.piston_leak_m2,
+        return not any((self.friction, self.valve_leak_m2, self.valve_leak_exhaust_m2, self.valve_underlap, self.valve_clearance,
+                        self.external_leak_m2, self.piston_leak_m2,
                         self.external_leak_laminar_kg_s_pa, self.piston_leak_laminar_kg_s_pa,
                         self.valve_hysteresis_v, self.pressure_offset_pa, self.pressure_drift, self.angle_offset_rad,
                         self.angle_scale_error,

@@ -21,6 +21,20 @@ open by the underlap on top of the valve's own opening (the area curve shifted, 
     A_s,leak = a clip(1 + (u - u_null) / w_u, 0, 1),   A_e,leak = a clip(1 - (u - u_null) / w_u, 0, 1)
 
 with a the area at null and w_u the underlap in command volts.
+
+A fourth, ``clearance``, is an overlapped spool whose lands seal by a radial clearance
+(Merritt 1967, ch. 5, the laminar clearance flow of a spool in its bore, pi d c^3 / (12 mu L)
+per unit pressure difference for a liquid; isothermal for a gas, as
+effects.external_leak.laminar_flow): both lands pass a laminar flow, each inversely as the
+length its land still covers, which the spool shortens on one land as it lengthens the other::
+
+    m_s = G / max(c_min, 1 - x) (p_s^2 - p^2) / (2 p_room),
+    m_e = G / max(c_min, 1 + x) (p^2 - p_room^2) / (2 p_room),     x = (u - u_null) / w_o
+
+with G the conductance of each land at null, w_o the overlap in command volts and c_min the
+least share of the overlap left covering a land (nearer to opening, the land's own orifice
+carries the flow).  Unlike the other forms it is a laminar flow, not an area: it grows with
+the square of the pressures and persists away from null on the land that stays shut.
 """
 from __future__ import annotations
 
@@ -29,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UnknownNameError
+from .external_leak import laminar_flow
 from .family import Family, param, place_names
 
 WIDTH_V = 0.6
@@ -51,6 +66,30 @@ def underlap_areas(u, null_v, area_m2, width_v):
     commands ``u`` [V] of valves whose null is ``null_v`` [V]; arrays broadcast."""
     x = (np.asarray(u, float) - null_v) / width_v
     return area_m2 * np.clip(1.0 + x, 0.0, 1.0), area_m2 * np.clip(1.0 - x, 0.0, 1.0)
+
+
+CLEARANCE_WIDTH_V = 0.6
+"""w_o [V]: the overlap the doctor assumes for the clearance form (it fits the conductance)"""
+COVER_MIN = 0.1
+"""c_min: the least share of a land's overlap left covering it in the clearance form"""
+
+
+def clearance_conductances(u, null_v, conductance_kg_s_pa, width_v):
+    """(supply, exhaust) conductances [kg/(s Pa)] of an overlapped spool's two lands (the
+    ``clearance`` form) at commands ``u`` [V] of valves whose null is ``null_v`` [V]: the
+    conductance at null over each land's covered share of the overlap; arrays broadcast."""
+    x = (np.asarray(u, float) - null_v) / width_v
+    g = np.asarray(conductance_kg_s_pa, float)
+    return g / np.maximum(COVER_MIN, 1.0 - x), g / np.maximum(COVER_MIN, 1.0 + x)
+
+
+def clearance_flows(g_supply, g_exhaust, p, supply_pa, room_pa: float):
+    """(m, dm/dp) [kg/s, kg/(s Pa)] into chambers at pressures ``p`` through their valves'
+    clearances of land conductances ``g_supply``, ``g_exhaust`` (clearance_conductances):
+    in from the supply at ``supply_pa``, out to the room (laminar_flow's isothermal law)."""
+    m_s, _, dms = laminar_flow(g_supply, supply_pa, p, room_pa)
+    m_e, dme, _ = laminar_flow(g_exhaust, p, room_pa, room_pa)
+    return m_s - m_e, dms - dme
 
 
 @dataclass(frozen=True)
@@ -77,14 +116,27 @@ class UnderlapLeak:
                                     "V", 0.05, 5.0, magnitude=False)
 
 
+@dataclass(frozen=True)
+class ClearanceLeak:
+    """An overlapped spool's lands seal by a radial clearance: a laminar flow through each."""
+
+    clearance_conductance_kg_s_pa: float = param(0.0, "laminar conductance of each land at null", "kg/(s Pa)",
+                                                 0.0, 1e-8)
+    overlap_width_v: float = param(CLEARANCE_WIDTH_V, "the overlap in command volts: a land's covered length "
+                                   "falls to nothing over it", "V", 0.05, 5.0, magnitude=False)
+
+
 class ValveLeak(Family):
     name = "valve_leak"
     place_kind = "chamber"
-    forms = {"symmetric": SymmetricLeak, "asymmetric": AsymmetricLeak, "underlap": UnderlapLeak}
+    forms = {"symmetric": SymmetricLeak, "asymmetric": AsymmetricLeak, "underlap": UnderlapLeak,
+             "clearance": ClearanceLeak}
     physics = ("extra supply and exhaust areas, a Gaussian of width 0.6 V around the valve's null; or an "
-               "underlapped spool's area curve, shifted by the underlap")
-    sources = "Merritt 1967 §3.6 (underlapped spools); Sorli et al. 1999"
-    simulator = "valve areas at each spool position (Simulation._update_areas)"
+               "underlapped spool's area curve, shifted by the underlap; or an overlapped spool's laminar "
+               "clearance flow through each land, inversely as its covered length")
+    sources = "Merritt 1967 §3.6 (underlapped spools) and ch. 5 (clearance flow); Sorli et al. 1999"
+    simulator = ("valve areas at each spool position (Simulation._update_areas); the clearance form's land "
+                 "conductances there too, its flows with the leaks (chamber.leak_flows, kernel)")
     doctor = "pressure_replay"
 
     def _areas(self, params) -> tuple[float, float]:
@@ -93,6 +145,9 @@ class ValveLeak(Family):
         return params.leak_area_m2, params.leak_area_m2
 
     def effect_set_entry(self, params):
+        if isinstance(params, ClearanceLeak):
+            return {"valve_clearance": {"conductance_kg_s_pa": params.clearance_conductance_kg_s_pa,
+                                        "width_v": params.overlap_width_v}}
         if isinstance(params, UnderlapLeak):
             return {"valve_underlap": {"area_m2": params.underlap_area_m2, "width_v": params.underlap_width_v}}
         if isinstance(params, AsymmetricLeak):
@@ -101,11 +156,18 @@ class ValveLeak(Family):
 
     def apply_to_mods(self, mods, robot, place, params):
         """PneumaticMods.valve_leak_m2 at the chamber; its exhaust side where it differs (the other
-        chambers' leaks keep their own, symmetric unless set); the underlap form's own arrays."""
+        chambers' leaks keep their own, symmetric unless set); the underlap and clearance forms'
+        own arrays."""
         names = place_names(robot, "chamber")
         if place not in names:
             raise UnknownNameError("chamber", place, names)
         c = names.index(place)
+        if isinstance(params, ClearanceLeak):
+            g = np.zeros(len(names)) if mods.valve_clearance_g is None else mods.valve_clearance_g.copy()
+            width = (np.full(len(names), CLEARANCE_WIDTH_V) if mods.valve_clearance_width_v is None
+                     else mods.valve_clearance_width_v.copy())
+            g[c], width[c] = params.clearance_conductance_kg_s_pa, params.overlap_width_v
+            return mods.copy(valve_clearance_g=g, valve_clearance_width_v=width)
         if isinstance(params, UnderlapLeak):
             area = np.zeros(len(names)) if mods.valve_underlap_m2 is None else mods.valve_underlap_m2.copy()
             width = (np.full(len(names), UNDERLAP_WIDTH_V) if mods.valve_underlap_width_v is None
