@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from identification.doctor.valve_arm.data import prepare
-from identification.doctor.valve_arm.pneumatic import ChamberModel, PneumaticMods, Windows, replay
+from identification.doctor.valve_arm.pneumatic import SUPPLY_FLOW_ARG, ChamberModel, PneumaticMods, Windows, replay
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 
@@ -29,6 +29,10 @@ EFFECTS = {
     "valve_underlap": {"valve_underlap_m2": np.array([0.0, 3e-8, 2e-8, 0.0]),
                        "valve_underlap_width_v": np.array([0.6, 0.3, 1.2, 0.6]),
                        "valve_leak_m2": np.array([1e-8, 0.0, 0.0, 0.0])},
+    "valve_clearance": {"valve_clearance_g": np.array([4e-11, 0.0, 2e-11, 0.0]),
+                        "valve_clearance_width_v": np.array([0.6, 0.6, 0.3, 0.6]), "supply_droop_pa_per_kg_s": 3e7},
+    "heat_transfer_with_clearance": {"heat_w_k": np.array([0.2, np.nan, np.nan, np.nan]),
+                                     "valve_clearance_g": np.array([4e-11, 0.0, 0.0, 0.0])},
     "external_leak": {"external_leak_m2": np.array([0.0, 3e-8, 0.0, 1e-8])},
     "piston_leak": {"piston_leak_m2": np.array([2e-8, 4e-8])},
     "laminar_leaks": {"external_leak_g": np.array([0.0, 3e-11, 0.0, 1e-11]), "piston_leak_g": np.array([2e-11, 4e-11])},
@@ -100,8 +104,8 @@ def test_compiled_replay_matches_the_numpy_replay(experiment, effect, monkeypatc
         assert np.sqrt(np.mean((fast - meas) ** 2)) < 2e4
 
 
-@pytest.mark.parametrize("effect", ["nominal", "valve_underlap", "supply_reservoir", "heat_transfer_with_leaks",
-                                    "receiver"])
+@pytest.mark.parametrize("effect", ["nominal", "valve_underlap", "valve_clearance", "supply_reservoir",
+                                    "heat_transfer_with_leaks", "receiver"])
 @pytest.mark.parametrize("averaged", [True, False])
 def test_the_compiled_loop_over_the_fine_steps_is_its_python_loop_to_the_bit(effect, averaged):
     """ChamberModel.run_windows (chamber_kernel.replay_batch) against run_windows_reference, the
@@ -124,6 +128,6 @@ def test_the_compiled_loop_over_the_fine_steps_is_its_python_loop_to_the_bit(eff
     slow = models[1].run_windows_reference(p0, u, travel, first, H, S, averaged, receiver)
     np.testing.assert_array_equal(fast, slow)
     np.testing.assert_array_equal(models[0].T, models[1].T)
-    np.testing.assert_array_equal(models[0]._kernel_args[14], models[1]._kernel_args[14])
+    np.testing.assert_array_equal(*(m._kernel_args[SUPPLY_FLOW_ARG] for m in models))
     np.testing.assert_array_equal(models[0].supply_shift, models[1].supply_shift)
     assert np.all(np.isfinite(fast)) and np.ptp(fast) > 1e3

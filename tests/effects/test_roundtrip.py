@@ -62,6 +62,11 @@ PRESSURE_CASES = [
     ("valve_leak", "symmetric", "elbow.a", {"leak_area_m2": 4e-8}, 100.0, 10.0),
     ("valve_leak", "asymmetric", "elbow.a", {"supply_leak_area_m2": 5e-8, "exhaust_leak_area_m2": 1e-8}, 100.0, 10.0),
     ("valve_leak", "underlap", "elbow.a", {"underlap_area_m2": 4e-8, "underlap_width_v": 0.4}, 100.0, 10.0),
+    # the generator's clearances (1-3e-11 at null); at 4e-11 over a 0.4 V overlap the land about
+    # to open passes 4e-10, a second valve whose gain near null sets the elbow's loop chattering
+    # faster than 100 Hz samples of its motion resolve (replays then miss by ~9 kPa)
+    ("valve_leak", "clearance", "elbow.a", {"clearance_conductance_kg_s_pa": 2e-11, "overlap_width_v": 0.6}, 100.0,
+     10.0),
     ("external_leak", "orifice", "shoulder.b", {"leak_area_m2": 2e-8}, 100.0, 10.0),
     ("external_leak", "laminar", "shoulder.b", {"conductance_kg_s_pa": 2e-11}, 100.0, 10.0),
     ("piston_leak", "orifice", "elbow", {"leak_area_m2": 2e-8}, 100.0, 10.0),

@@ -1,6 +1,6 @@
 """Compiled twin of :meth:`identification.doctor.valve_arm.pneumatic.ChamberModel.step_reference`: one 1 ms step
 of paper 002 eq. 9 for a batch (W, C) of chamber sets, with the doctor's pneumatic hypotheses
-(valve leak near null, external and piston leaks, calibration scales, supply droop, heat transfer;
+(valve leak near null or through the lands' clearances, external and piston leaks, calibration scales, supply droop, heat transfer;
 a compliant wall, which the check of a line's constant volume fits).
 
 The doctor replays a recording hundreds of times (calibration, every hypothesis, the held-out
@@ -11,7 +11,8 @@ reference to round-off, effect by effect.
 Arrays (C chambers, ordered a, b per actuator; W windows):
   p, u, travel0, travel1, out (W, C) [Pa, V, m, m, Pa];  rows (C, 8) valve columns
   (pneumatics.valve.VALVE_COLUMNS);  supply_scale, exhaust_scale, valve_leak_m2, underlap_m2,
-  underlap_width_v, external_leak_m2,
+  underlap_width_v, clearance_g (valve_leak's clearance form: each land's conductance at null
+  [kg/(s Pa)]), clearance_width_v, external_leak_m2,
   external_leak_g, dead_m3, area_m2 (C,);  piston_leak_m2, piston_leak_g (C // 2,) (the *_g are the
   laminar forms' conductances [kg/(s Pa)], pneumatics.effects.external_leak.laminar_flow);  m_supply (W,) total supply flow of the last
   step [kg/s], low-passed with the droop's time constant glob[14] (read for the droop, then updated);  glob as in :mod:`pneumatics.kernel`;
@@ -25,6 +26,7 @@ import math
 import numba
 import numpy as np
 
+from pneumatics.effects.valve_leak import COVER_MIN
 from pneumatics.kernel import GAMMA, QUADRATIC_DROOP, orifice_flow_compiled
 
 
@@ -53,10 +55,24 @@ def _valve(u, row, scale_s, scale_e, leak_s, leak_e, leak_width, lap, lap_width)
     return out_s, out_e
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _clearance(u, null, g, width):
+    """pneumatics.effects.valve_leak.clearance_conductances for one command: (supply, exhaust)."""
+    x = (u - null) / width
+    return g / max(COVER_MIN, 1.0 - x), g / max(COVER_MIN, 1.0 + x)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _clearance_flow(q, g_s, g_e, ps, room):
+    """pneumatics.effects.valve_leak.clearance_flows for one chamber: the net flow in [kg/s]."""
+    return (g_s * (ps - q) * (ps + q) - g_e * (q - room) * (q + room)) / (2.0 * room)
+
+
 @numba.njit(cache=True, error_model="numpy")
-def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ext_g, piston_g, ps, glob, f, jac, m_s, wall):
-    """Pressure rates f and their diagonal Jacobian jac (C,) at pressures q (C,); ``wall`` (C,)
-    a compliant wall's dV/dp [m^3/Pa] (pneumatic.capacity)."""
+def _rhs(q, vol, vdot, a_s, a_e, g_s, g_e, ext, piston, ext_g, piston_g, ps, glob, f, jac, m_s, wall):
+    """Pressure rates f and their diagonal Jacobian jac (C,) at pressures q (C,); ``g_s``, ``g_e``
+    (C,) the valves' land clearance conductances at the command (valve_leak, clearance form);
+    ``wall`` (C,) a compliant wall's dV/dp [m^3/Pa] (pneumatic.capacity)."""
     rt, n, room = glob[0] * glob[2], glob[3], glob[9]
     C = q.shape[0]
     m = np.empty(C)
@@ -74,6 +90,9 @@ def _rhs(q, vol, vdot, a_s, a_e, ext, piston, ext_g, piston_g, ps, glob, f, jac,
         if ext_g[c] > 0.0:  # laminar: G (p^2 - p_room^2) / (2 p_room)
             m[c] -= ext_g[c] * (q[c] - room) * (q[c] + room) / (2.0 * room)
             dm[c] -= ext_g[c] * q[c] / room
+        if g_s[c] > 0.0 or g_e[c] > 0.0:  # the lands' clearances (effects.valve_leak.clearance_flows)
+            m[c] += _clearance_flow(q[c], g_s[c], g_e[c], ps, room)
+            dm[c] -= (g_s[c] + g_e[c]) * q[c] / room
     for j in range(C // 2):
         if piston[j] > 0.0:
             mab, da, db = orifice_flow_compiled(piston[j], q[2 * j], q[2 * j + 1], glob)
@@ -135,7 +154,7 @@ def _thermal(p, T, vol, vdot, a_s, a_e, ps, hA, extra, glob):
 
 @numba.njit(cache=True, error_model="numpy")
 def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2,
-               leak_width_v, underlap_m2, underlap_width_v,
+               leak_width_v, underlap_m2, underlap_width_v, clearance_g, clearance_width_v,
                external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, dead_m3, area_m2, m_supply, glob,
                out, heat_w_k, T, wall, supply_shift):
     """One linearly implicit ROS2 step (chamber.integrate's stages, fixed dt) for every window.
@@ -147,7 +166,7 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
     W, C = p.shape
     dt, droop, droop2 = glob[10], glob[12], glob[QUADRATIC_DROOP]
     follow = dt / (glob[14] + dt)  # the reservoir form's low-pass of the supply flow (effects.supply_droop)
-    a_s, a_e = np.empty(C), np.empty(C)
+    a_s, a_e, g_s, g_e = np.empty(C), np.empty(C), np.zeros(C), np.zeros(C)
     vol, vdot = np.empty(C), np.empty(C)
     f0, jac, f1, jac1 = np.empty(C), np.empty(C), np.empty(C), np.empty(C)
     m_s, m_s1 = np.empty(C), np.empty(C)
@@ -157,14 +176,16 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
         for c in range(C):
             a_s[c], a_e[c] = _valve(u[w, c], rows[c], supply_scale[c], exhaust_scale[c], valve_leak_m2[c],
                                    valve_leak_exhaust_m2[c], leak_width_v, underlap_m2[c], underlap_width_v[c])
+            if clearance_g[c] > 0.0:
+                g_s[c], g_e[c] = _clearance(u[w, c], rows[c, 0], clearance_g[c], clearance_width_v[c])
             vol[c] = dead_m3[c] + area_m2[c] * 0.5 * (travel0[w, c] + travel1[w, c])
             vdot[c] = area_m2[c] * (travel1[w, c] - travel0[w, c]) / dt
-        _rhs(p[w], vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, ps, glob,
+        _rhs(p[w], vol, vdot, a_s, a_e, g_s, g_e, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, ps, glob,
              f0, jac, m_s, wall)
         for c in range(C):
             k1[c] = f0[c] / (1.0 - GAMMA * dt * jac[c])
             q1[c] = p[w, c] + dt * k1[c]
-        _rhs(q1, vol, vdot, a_s, a_e, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, ps, glob,
+        _rhs(q1, vol, vdot, a_s, a_e, g_s, g_e, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, ps, glob,
              f1, jac1, m_s1, wall)
         total = 0.0
         for c in range(C):
@@ -183,6 +204,8 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
                 extra -= orifice_flow_compiled(external_leak_m2[c], p[w, c], room, glob)[0]
             if external_leak_g[c] > 0.0:
                 extra -= external_leak_g[c] * (p[w, c] - room) * (p[w, c] + room) / (2.0 * room)
+            if g_s[c] > 0.0 or g_e[c] > 0.0:
+                extra += _clearance_flow(p[w, c], g_s[c], g_e[c], ps, room)
             j = c // 2
             pa, pb = p[w, 2 * j], p[w, 2 * j + 1]
             mab = 0.0
@@ -197,8 +220,8 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
 @numba.njit(cache=True, error_model="numpy")
 def replay_batch(p, u_fine, travel, first, horizon, n_sub, averaged, receiver, supply_pa, rows, supply_scale,
                  exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2, leak_width_v, underlap_m2, underlap_width_v,
-                 external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, dead_m3, area_m2, m_supply, glob,
-                 heat_w_k, T, wall, supply_shift, out):
+                 clearance_g, clearance_width_v, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g,
+                 dead_m3, area_m2, m_supply, glob, heat_w_k, T, wall, supply_shift, out):
     """pneumatic.replay's loop over the fine steps, compiled: every window w starts at fine step
     ``first[w]`` from pressures ``p`` (W, C) and is stepped by :func:`step_batch` ``horizon`` x
     ``n_sub`` times with its commands ``u_fine`` (F, C) and travels ``travel`` (F, C); ``out``
@@ -221,8 +244,9 @@ def replay_batch(p, u_fine, travel, first, horizon, n_sub, averaged, receiver, s
             if receiver.size:
                 supply_shift[w] = receiver[min(f, receiver.size - 1)] - supply_pa
         step_batch(p, u, t0, t1, rows, supply_scale, exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2,
-                   leak_width_v, underlap_m2, underlap_width_v, external_leak_m2, piston_leak_m2, external_leak_g,
-                   piston_leak_g, dead_m3, area_m2, m_supply, glob, nxt, heat_w_k, T, wall, supply_shift)
+                   leak_width_v, underlap_m2, underlap_width_v, clearance_g, clearance_width_v, external_leak_m2,
+                   piston_leak_m2, external_leak_g, piston_leak_g, dead_m3, area_m2, m_supply, glob, nxt, heat_w_k, T,
+                   wall, supply_shift)
         p, nxt = nxt, p
         acc += p
         if (step + 1) % n_sub == 0:

@@ -120,6 +120,7 @@ _PNEUMATIC_FORMS = {
     ("valve_leak", "symmetric"): ("leak_area_m2",),
     ("valve_leak", "asymmetric"): ("supply_leak_area_m2", "exhaust_leak_area_m2"),
     ("valve_leak", "underlap"): ("underlap_area_m2",),
+    ("valve_leak", "clearance"): ("clearance_conductance_kg_s_pa",),
     ("external_leak", "orifice"): ("leak_area_m2",),
     ("piston_leak", "orifice"): ("leak_area_m2",),
     ("piston_leak", "laminar"): ("conductance_kg_s_pa",),

@@ -147,7 +147,7 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
         valves.ps = receiver[: F - 1, None]
     m_s, m_e, d_ps = valves.flows(u_eff)
     leak_x = mods.external_leak_flow(p_mid, room, gas)[0]
-    m_model = m_s - m_e - leak_x
+    m_model = m_s - m_e - leak_x + mods.valve_clearance_flow(u_eff, tab.valve[:, 0], p_mid, valves.ps, room)[0]
     if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
         m_ab = mods.piston_leak_flow(p_mid, room, gas)[0]
         m_model = m_model.copy()

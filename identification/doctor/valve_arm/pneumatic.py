@@ -21,7 +21,8 @@ from pneumatics.effects.heat_transfer import thermal_step
 from pneumatics.effects.pressure_sensor_offset import offset_at
 from pneumatics.effects.valve_dynamics import dead_time, first_order_lag, play, slew_limited
 from pneumatics.effects.valve_lag import slew_step_v
-from pneumatics.effects.valve_leak import UNDERLAP_WIDTH_V, WIDTH_V, leak_areas, underlap_areas
+from pneumatics.effects.valve_leak import (CLEARANCE_WIDTH_V, UNDERLAP_WIDTH_V, WIDTH_V, clearance_conductances,
+                                          clearance_flows, leak_areas, underlap_areas)
 from pneumatics.effects.supply_droop import droop_pa, filtered_flow
 from pneumatics.kernel import pack_glob
 from pneumatics.medium import orifice_flow
@@ -31,6 +32,11 @@ from .chamber_kernel import replay_batch, step_batch
 from .data import FINE_DT, Experiment, fine_pressures
 from .receiver import compressor_of, measured_supply_flow, receiver_trajectory
 from .thermal import gas_temperatures
+
+
+#: the place of the windows' low-passed supply flow (W,) [kg/s] among the compiled step's
+#: arguments (ChamberModel._pack_kernel), a state the kernel updates
+SUPPLY_FLOW_ARG = 16
 
 
 @dataclass
@@ -48,6 +54,9 @@ class PneumaticMods:
     valve_leak_width_v: float = WIDTH_V
     valve_underlap_m2: np.ndarray = None      # an underlapped spool's area at null (valve_leak, underlap form)
     valve_underlap_width_v: np.ndarray = None # its underlap [V] (None: UNDERLAP_WIDTH_V)
+    valve_clearance_g: np.ndarray = None      # an overlapped spool's land conductance at null [kg/(s Pa)]
+                                              # (valve_leak, clearance form)
+    valve_clearance_width_v: np.ndarray = None  # its overlap [V] (None: CLEARANCE_WIDTH_V)
     external_leak_m2: np.ndarray = None       # orifice from the chamber to the room
     piston_leak_m2: np.ndarray = None         # (n_act,) orifice between chambers a and b
     external_leak_g: np.ndarray = None        # laminar leak to the room, conductance [kg/(s Pa)]
@@ -97,6 +106,16 @@ class PneumaticMods:
             lap_s, lap_e = underlap_areas(u, null_v, self.valve_underlap_m2[cs], width)
             out_s, out_e = out_s + lap_s, out_e + lap_e
         return out_s, out_e
+
+    def valve_clearance_flow(self, u, null_v, p, supply_pa, room_pa: float, cs=slice(None)):
+        """(m, dm/dp) [kg/s, kg/(s Pa)] into the chambers ``cs`` at pressures ``p`` through their
+        valves' land clearances at commands ``u`` [V] (null ``null_v``), from the supply at
+        ``supply_pa`` and to the room (effects.valve_leak.clearance_flows); (0, 0) if none."""
+        if self.valve_clearance_g is None:
+            return 0.0, 0.0
+        width = CLEARANCE_WIDTH_V if self.valve_clearance_width_v is None else self.valve_clearance_width_v[cs]
+        g_s, g_e = clearance_conductances(u, null_v, self.valve_clearance_g[cs], width)
+        return clearance_flows(g_s, g_e, p, supply_pa, room_pa)
 
     def external_leak_flow(self, p, room_pa: float, gas, cs=slice(None)):
         """(m, dm/dp) [kg/s, kg/(s Pa)] out of the chambers ``cs`` at pressures ``p`` through the
@@ -231,6 +250,7 @@ class ChamberModel:
         return (np.ascontiguousarray(np.array(tab.valve, float)[own]), per(mods.supply_scale), per(mods.exhaust_scale),
                 per(mods.valve_leak_m2), per(mods.valve_leak_exhaust()), float(mods.valve_leak_width_v),
                 per(mods.valve_underlap_m2), per(mods.valve_underlap_width_v, UNDERLAP_WIDTH_V),
+                per(mods.valve_clearance_g), per(mods.valve_clearance_width_v, CLEARANCE_WIDTH_V),
                 per(mods.external_leak_m2), per_cylinder(mods.piston_leak_m2),
                 per(mods.external_leak_g), per_cylinder(mods.piston_leak_g), per(self.dead), per(tab.area),
                 np.zeros(self.W), glob, per(mods.heat_w_k, np.nan), per(mods.wall_compliance_m3_pa))
@@ -247,12 +267,12 @@ class ChamberModel:
 
         Compiled (identification.doctor.valve_arm.chamber_kernel); :meth:`step_reference` is its numpy twin.
         Chambers with heat_transfer update their gas temperatures ``self.T`` (W, C) [K]."""
-        rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area, m_sup, glob, heat, wall = self._kernel_args
+        rows, ss, es, vl, vle, vw, ul, uw, cg, cw, xl, pl, xg, pg, dead, area, m_sup, glob, heat, wall = self._kernel_args
         out = np.empty_like(p)
         W = p.shape[0]
         T = np.ascontiguousarray(self.T[:W], float)
         step_batch(np.ascontiguousarray(p, float), np.ascontiguousarray(u, float), np.ascontiguousarray(travel0, float),
-                   np.ascontiguousarray(travel1, float), rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area,
+                   np.ascontiguousarray(travel1, float), rows, ss, es, vl, vle, vw, ul, uw, cg, cw, xl, pl, xg, pg, dead, area,
                    m_sup[:W], glob, out, heat, T, wall, self.supply_shift[:W])
         self.T[:W] = T
         return out
@@ -263,14 +283,14 @@ class ChamberModel:
         ``averaged``), commands ``u_fine`` and travels ``travel`` (F, C) on the fine grid, the
         supply following ``receiver`` (F,) [Pa] if not None.  Compiled
         (chamber_kernel.replay_batch); :meth:`run_windows_reference` is its Python twin."""
-        rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area, m_sup, glob, heat, wall = self._kernel_args
+        rows, ss, es, vl, vle, vw, ul, uw, cg, cw, xl, pl, xg, pg, dead, area, m_sup, glob, heat, wall = self._kernel_args
         W, C = p.shape
         out = np.zeros((W, horizon, C))
         T = np.ascontiguousarray(self.T[:W], float)
         path = np.zeros(0) if receiver is None else np.ascontiguousarray(receiver, float)
         replay_batch(np.array(p, float), np.ascontiguousarray(u_fine, float), np.ascontiguousarray(travel, float),
                      np.ascontiguousarray(first, np.int64), int(horizon), int(n_sub), bool(averaged), path,
-                     float(self.tab.supply_pa), rows, ss, es, vl, vle, vw, ul, uw, xl, pl, xg, pg, dead, area,
+                     float(self.tab.supply_pa), rows, ss, es, vl, vle, vw, ul, uw, cg, cw, xl, pl, xg, pg, dead, area,
                      m_sup[:W], glob, heat, T, wall, self.supply_shift[:W], out)
         self.T[:W] = T
         return out
@@ -313,7 +333,7 @@ class ChamberModel:
         """Start every window's low-passed supply flow (the reservoir form's state) at
         ``total_kg_s`` (W,) [kg/s]."""
         W = total_kg_s.size
-        self._kernel_args[14][:W] = total_kg_s
+        self._kernel_args[SUPPLY_FLOW_ARG][:W] = total_kg_s
         self.m_supply_total[:W, 0] = total_kg_s
 
     def step_reference(self, p, u, travel0, travel1):
@@ -337,8 +357,9 @@ class ChamberModel:
             m = m_s - m_e
             dm = dms - dme
             m_x, dmx = mods.external_leak_flow(q, room, gas)
-            m = m - m_x
-            dm = dm - dmx
+            m_c, dmc = mods.valve_clearance_flow(u, tab.valve[:, 0], q, ps, room)
+            m = m - m_x + m_c
+            dm = dm - dmx + dmc
             if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
                 m_ab, dab_a, dab_b = mods.piston_leak_flow(q, room, gas)  # a -> b
                 m = m.copy()
@@ -360,17 +381,18 @@ class ChamberModel:
         if bad.any():
             p_new = np.where(bad, p, p_new)
         if self.thermal.size:
-            p_new = self._thermal_step(p, p_new, a_s, a_e, vol, vdot, ps)
+            p_new = self._thermal_step(p, p_new, u, a_s, a_e, vol, vdot, ps)
         if droop:
             self.m_supply_total = filtered_flow(self.m_supply_total, np.maximum(m_s, 0).sum(axis=1, keepdims=True),
                                                 mods.supply_droop_tau_s, FINE_DT)
         return p_new
 
-    def _thermal_step(self, p, p_new, a_s, a_e, vol, vdot, ps):
+    def _thermal_step(self, p, p_new, u, a_s, a_e, vol, vdot, ps):
         """The heat_transfer chambers by the energy equation (pneumatics.effects.heat_transfer)."""
         cs, mods, tab = self.thermal, self.mods, self.tab
         extra = np.zeros_like(p)
         extra -= mods.external_leak_flow(p, tab.room_pa, self.gas)[0]
+        extra += mods.valve_clearance_flow(u, tab.valve[:, 0], p, ps, tab.room_pa)[0]
         if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
             m_ab = mods.piston_leak_flow(p, tab.room_pa, self.gas)[0]
             extra[:, 0::2] -= m_ab

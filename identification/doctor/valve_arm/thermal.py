@@ -52,6 +52,7 @@ def _inputs(exp: Experiment, mods, chambers, u_fine: np.ndarray):
     a_s, a_e = a_s + leak_s, a_e + leak_e
     m = orifice_flow(a_s, tab.supply_pa, p, gas)[0] - orifice_flow(a_e, p, tab.room_pa, gas)[0]
     m = m - mods.external_leak_flow(p, tab.room_pa, gas, cs)[0]
+    m = m + mods.valve_clearance_flow(u_fine[:, cs], tab.valve[cs, 0], p, tab.supply_pa, tab.room_pa, cs)[0]
     return p, vol, vdot, np.maximum(m, 0.0), np.minimum(m, 0.0), mods.heat_w_k[cs]
 
 
