@@ -43,7 +43,7 @@ def _apply(family: str, robot, place: str, form: str | None = None):
 #: arm2's chambers (walls of 20-50 cm^2, h = 10-100 W/(m^2 K) with the flow's forced convection,
 #: Carneiro & de Almeida 2006) have 0.02-0.5 W/K; 2 W/K is close to isothermal at 1 ms.
 HEAT_PROBE_W_K, HEAT_MAX_W_K = 0.1, 2.0
-#: the laminar piston leak's conductance G [kg/(s Pa)] (pneumatics.effects.external_leak.laminar_flow): the
+#: the laminar piston leak's and valve clearance's conductance G [kg/(s Pa)] (effects.external_leak.laminar_flow): the
 #: probe step carries about what a 1e-8 m^2 orifice does at 5 bar (~1e-5 kg/s), the bound 10x
 #: the orifice forms' 4e-7 m^2 in the same sense
 LAMINAR_PROBE, LAMINAR_MAX = 1e-11, 4e-9
@@ -71,6 +71,13 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
             # underlap width is assumed (UNDERLAP_WIDTH_V), the area fitted
             Hypothesis("valve_leak", where, "pneumatic", [("underlap_area_m2", 0.0, 0.0, 4e-7, 2e-8)], [c],
                        apply=_apply("valve_leak", robot, place, "underlap")),
+            # an overlapped spool whose lands seal by a radial clearance (Merritt 1967 ch. 5): a
+            # laminar flow through each land, inversely as the length it still covers, so the
+            # land that stays shut leaks at every opening and the flow grows as the pressures
+            # squared; the overlap is assumed (CLEARANCE_WIDTH_V), the conductance fitted
+            Hypothesis("valve_leak", where, "pneumatic",
+                       [("clearance_conductance_kg_s_pa", 0.0, 0.0, LAMINAR_MAX, LAMINAR_PROBE)], [c],
+                       apply=_apply("valve_leak", robot, place, "clearance")),
             Hypothesis("external_leak", where, "pneumatic", [("leak_area_m2", 0.0, 0.0, 4e-7, 1e-8)], [c],
                        apply=_apply("external_leak", robot, place, "orifice")),
             # no laminar form of the external leak here (the simulator has one): the orifice
