@@ -209,7 +209,8 @@ def pulsation_gains(tr: _Target, ho: _Target) -> tuple[float, float, float]:
 def _pulsation_fit(t: _Target, f_hz: float, amplitude_pa: float | None = None) -> tuple[float, float]:
     """(gain, amplitude [Pa]) of a sine of f_hz on the target's blocks by weighted least
     squares, with the level; ``amplitude_pa`` given, only the phase and the level are chosen
-    (the least-squares phase, the level refitted)."""
+    (the least-squares phase, the level refitted).  Pooled recordings are one time line: a
+    pulsation's phase runs on across their joins, as a receiver's path does."""
     time = np.arange(t.total.size) * FINE_DT
     sin_b, cos_b = (t.block_means(g(2.0 * np.pi * f_hz * time)) for g in (np.sin, np.cos))
     X = (np.stack([t.s * sin_b[:, None], t.s * cos_b[:, None], -t.s], axis=-1) * t.w[..., None]).reshape(-1, 3)
