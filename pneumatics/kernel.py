@@ -194,6 +194,14 @@ def _receiver_step(p, areas, glob):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
+def clearance_flow_compiled(p, g_supply, g_exhaust, supply_pa, room_pa):
+    """effects.valve_leak.clearance_flows for one chamber at pressure p: the net flow in [kg/s]
+    through its valve's lands of conductances g_supply, g_exhaust (the simulator's and the
+    doctor's compiled steps)."""
+    return (g_supply * (supply_pa - p) * (supply_pa + p) - g_exhaust * (p - room_pa) * (p + room_pa)) / (2.0 * room_pa)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _leak_flows(p, act, ch, glob, m_extra):
     """m_extra[i] = the leak flows into chamber i [kg/s], explicit over the step (their time
     constants >> dt): to the room (external_leak), across the piston (piston_leak) and through
@@ -205,9 +213,8 @@ def _leak_flows(p, act, ch, glob, m_extra):
             m_extra[i] -= m_x
         if ch[i, 13] > 0.0:  # laminar: G (p^2 - p_room^2) / (2 p_room) (effects.external_leak)
             m_extra[i] -= ch[i, 13] * (p[i] - glob[9]) * (p[i] + glob[9]) / (2.0 * glob[9])
-        if ch[i, 14] > 0.0 or ch[i, 15] > 0.0:  # a valve's clearance (effects.valve_leak.clearance_flows)
-            m_extra[i] += (ch[i, 14] * (glob[13] - p[i]) * (glob[13] + p[i])
-                           - ch[i, 15] * (p[i] - glob[9]) * (p[i] + glob[9])) / (2.0 * glob[9])
+        if ch[i, 14] > 0.0 or ch[i, 15] > 0.0:  # a valve's clearance
+            m_extra[i] += clearance_flow_compiled(p[i], ch[i, 14], ch[i, 15], glob[13], glob[9])
     for j in range(act.shape[0]):
         if act[j, 5] > 0.0:
             m_ab, _, _ = orifice_flow_compiled(act[j, 5], p[2 * j], p[2 * j + 1], glob)

@@ -126,6 +126,17 @@ class ClearanceLeak:
                                    "falls to nothing over it", "V", 0.05, 5.0, magnitude=False)
 
 
+def _with_chamber_pair(mods, c: int, n: int, attrs: tuple, values: tuple, default_width_v: float):
+    """``mods`` with chamber c's (magnitude, width) set in its per-chamber arrays ``attrs`` (the
+    underlap and clearance forms'), the other chambers keeping theirs (0 and default_width_v
+    where none was set)."""
+    mag, width = (getattr(mods, a) for a in attrs)
+    mag = np.zeros(n) if mag is None else mag.copy()
+    width = np.full(n, default_width_v) if width is None else width.copy()
+    mag[c], width[c] = values
+    return mods.copy(**dict(zip(attrs, (mag, width))))
+
+
 class ValveLeak(Family):
     name = "valve_leak"
     place_kind = "chamber"
@@ -163,17 +174,11 @@ class ValveLeak(Family):
             raise UnknownNameError("chamber", place, names)
         c = names.index(place)
         if isinstance(params, ClearanceLeak):
-            g = np.zeros(len(names)) if mods.valve_clearance_g is None else mods.valve_clearance_g.copy()
-            width = (np.full(len(names), CLEARANCE_WIDTH_V) if mods.valve_clearance_width_v is None
-                     else mods.valve_clearance_width_v.copy())
-            g[c], width[c] = params.clearance_conductance_kg_s_pa, params.overlap_width_v
-            return mods.copy(valve_clearance_g=g, valve_clearance_width_v=width)
+            return _with_chamber_pair(mods, c, len(names), ("valve_clearance_g", "valve_clearance_width_v"),
+                                      (params.clearance_conductance_kg_s_pa, params.overlap_width_v), CLEARANCE_WIDTH_V)
         if isinstance(params, UnderlapLeak):
-            area = np.zeros(len(names)) if mods.valve_underlap_m2 is None else mods.valve_underlap_m2.copy()
-            width = (np.full(len(names), UNDERLAP_WIDTH_V) if mods.valve_underlap_width_v is None
-                     else mods.valve_underlap_width_v.copy())
-            area[c], width[c] = params.underlap_area_m2, params.underlap_width_v
-            return mods.copy(valve_underlap_m2=area, valve_underlap_width_v=width)
+            return _with_chamber_pair(mods, c, len(names), ("valve_underlap_m2", "valve_underlap_width_v"),
+                                      (params.underlap_area_m2, params.underlap_width_v), UNDERLAP_WIDTH_V)
         supply, exhaust = self._areas(params)
         sup = np.zeros(len(names)) if mods.valve_leak_m2 is None else mods.valve_leak_m2.copy()
         exh = None if mods.valve_leak_exhaust_m2 is None else mods.valve_leak_exhaust_m2.copy()

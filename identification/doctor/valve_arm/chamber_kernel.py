@@ -27,7 +27,7 @@ import numba
 import numpy as np
 
 from pneumatics.effects.valve_leak import COVER_MIN
-from pneumatics.kernel import GAMMA, QUADRATIC_DROOP, orifice_flow_compiled
+from pneumatics.kernel import GAMMA, QUADRATIC_DROOP, clearance_flow_compiled, orifice_flow_compiled
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -62,12 +62,6 @@ def _clearance(u, null, g, width):
     return g / max(COVER_MIN, 1.0 - x), g / max(COVER_MIN, 1.0 + x)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _clearance_flow(q, g_s, g_e, ps, room):
-    """pneumatics.effects.valve_leak.clearance_flows for one chamber: the net flow in [kg/s]."""
-    return (g_s * (ps - q) * (ps + q) - g_e * (q - room) * (q + room)) / (2.0 * room)
-
-
 @numba.njit(cache=True, error_model="numpy")
 def _rhs(q, vol, vdot, a_s, a_e, g_s, g_e, ext, piston, ext_g, piston_g, ps, glob, f, jac, m_s, wall):
     """Pressure rates f and their diagonal Jacobian jac (C,) at pressures q (C,); ``g_s``, ``g_e``
@@ -91,7 +85,7 @@ def _rhs(q, vol, vdot, a_s, a_e, g_s, g_e, ext, piston, ext_g, piston_g, ps, glo
             m[c] -= ext_g[c] * (q[c] - room) * (q[c] + room) / (2.0 * room)
             dm[c] -= ext_g[c] * q[c] / room
         if g_s[c] > 0.0 or g_e[c] > 0.0:  # the lands' clearances (effects.valve_leak.clearance_flows)
-            m[c] += _clearance_flow(q[c], g_s[c], g_e[c], ps, room)
+            m[c] += clearance_flow_compiled(q[c], g_s[c], g_e[c], ps, room)
             dm[c] -= (g_s[c] + g_e[c]) * q[c] / room
     for j in range(C // 2):
         if piston[j] > 0.0:
@@ -205,7 +199,7 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
             if external_leak_g[c] > 0.0:
                 extra -= external_leak_g[c] * (p[w, c] - room) * (p[w, c] + room) / (2.0 * room)
             if g_s[c] > 0.0 or g_e[c] > 0.0:
-                extra += _clearance_flow(p[w, c], g_s[c], g_e[c], ps, room)
+                extra += clearance_flow_compiled(p[w, c], g_s[c], g_e[c], ps, room)
             j = c // 2
             pa, pb = p[w, 2 * j], p[w, 2 * j + 1]
             mab = 0.0
