@@ -24,6 +24,14 @@ def test_the_profile_chooses_the_exponent_the_simulator_ran(arm2, exponent):
     assert chosen["elbow"] == pytest.approx(exponent, abs=0.15)
 
 
+def test_a_law_steeper_than_the_grid_gets_no_power_law(arm2):
+    """A profile still falling at the grid's greatest n has found no exponent (an n = 2.5
+    elbow friction stood in for calibration errors at the speed's peaks on two arm2 development
+    cases): none is put forward, as for the least n."""
+    chosen = _chosen(arm2, "viscous_friction", "velocity_power", {"power_coefficient_nm": 0.02, "exponent": 3.0})
+    assert "elbow" not in chosen
+
+
 def test_a_linear_friction_gets_an_exponent_near_one_or_no_power_law(arm2):
     chosen = _chosen(arm2, "viscous_friction", "linear", {"viscous_nm_s_per_rad": 0.1})
     assert chosen.get("elbow", 1.0) == pytest.approx(1.0, abs=0.25)
