@@ -92,6 +92,14 @@ def huber_weights(e: np.ndarray, scale: float) -> np.ndarray:
     return np.sqrt(1.0 / np.maximum(a, 1.0))
 
 
+def huber_loss(e: np.ndarray, scale) -> np.ndarray:
+    """Huber's loss (1964) of the errors ``e`` at robust scale ``scale``: z^2 / 2 for |z| =
+    |e| / scale within HUBER_K, linear beyond, so that one block a prediction misses by far
+    counts as far as its error, not as its square."""
+    z = np.abs(e) / np.maximum(np.asarray(scale, float), 1e-300)
+    return np.where(z <= HUBER_K, 0.5 * z * z, HUBER_K * z - 0.5 * HUBER_K ** 2)
+
+
 def robust_scale(e: np.ndarray) -> float:
     """1.4826 x the median absolute deviation (the s.d. for Gaussian errors)."""
     return float(1.4826 * np.median(np.abs(e - np.median(e))))
