@@ -98,17 +98,23 @@ class _Valves:
         self._droop2 = float(mods.supply_droop_pa_per_kg2_s2)
         self._droop_tau = float(mods.supply_droop_tau_s)
 
-    def flows(self, u, derivative: bool = True):
-        """(supply flow, exhaust flow), each (F, C) [kg/s], and d supply flow / d p_supply
-        (None without ``derivative``)."""
-        a_s, a_e = model_areas(self.tab, self.mods, u)
+    def supply_pressure(self, a_s) -> np.ndarray:
+        """(F, 1) the supply pressure at the valves [Pa]: the nominal's (or the receiver's),
+        less the droop the model's own total supply flow through areas ``a_s`` leaves."""
         ps = self.ps
-        if self._droop > 0 or self._droop2 > 0:  # the supply pressure the model's own total supply flow leaves
+        if self._droop > 0 or self._droop2 > 0:
             m0 = orifice_flow(a_s, ps, self.p, self.gas, derivatives=False)[0]
             total = np.maximum(m0, 0).sum(axis=1, keepdims=True)
             if self._droop_tau > 0:  # behind a receiver (effects.supply_droop, reservoir form)
                 total = lowpass(total, self._droop_tau)
             ps = ps - droop_pa(total, self._droop, self._droop2)
+        return ps
+
+    def flows(self, u, derivative: bool = True):
+        """(supply flow, exhaust flow), each (F, C) [kg/s], and d supply flow / d p_supply
+        (None without ``derivative``)."""
+        a_s, a_e = model_areas(self.tab, self.mods, u)
+        ps = self.supply_pressure(a_s)
         m_s, d_ps, _ = orifice_flow(a_s, ps, self.p, self.gas, derivatives=derivative)
         m_e = orifice_flow(a_e, self.p, self.tab.room_pa, self.gas, derivatives=False)[0]
         return m_s, m_e, d_ps
@@ -147,7 +153,9 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
         valves.ps = receiver[: F - 1, None]
     m_s, m_e, d_ps = valves.flows(u_eff)
     leak_x = mods.external_leak_flow(p_mid, room, gas)[0]
-    m_model = m_s - m_e - leak_x + mods.valve_clearance_flow(u_eff, tab.valve[:, 0], p_mid, valves.ps, room)[0]
+    # the lands' clearance flows from the drooped supply, as the replays' (chamber_kernel)
+    ps_valves = valves.ps if mods.valve_clearance_g is None else valves.supply_pressure(model_areas(tab, mods, u_eff)[0])
+    m_model = m_s - m_e - leak_x + mods.valve_clearance_flow(u_eff, tab.valve[:, 0], p_mid, ps_valves, room)[0]
     if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
         m_ab = mods.piston_leak_flow(p_mid, room, gas)[0]
         m_model = m_model.copy()
