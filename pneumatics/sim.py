@@ -36,13 +36,16 @@ from .effects.effect_set import EffectSet
 from .effects.pressure_sensor_offset import offset_at
 from .effects.friction import friction_torque
 from .effects.heat_transfer import thermal_step
+from .effects.line_dynamics import rc_line_step
 from .effects.valve_hysteresis import play_step
 from .effects.valve_lag import lag_decay, slew_step_v
-from .effects.valve_leak import clearance_conductances, leak_areas, underlap_areas
+from .effects.valve_leak import clearance_conductances, clearance_flows, leak_areas, underlap_areas
 from . import arguments
-from .errors import ArgumentError, PneumasimError
+from .errors import ArgumentError, ConfigError, PneumasimError
 from .command_kernel import CLIPPED, OK
 from .kernel import MUJOCO_FUNCTIONS, RUNNING, fluid_step_fast, pack
+from .medium import orifice_flow
+from .tube_kernel import rc_line_step_compiled
 from .robot import Robot
 from .tables import valve_areas_table
 
@@ -142,16 +145,28 @@ class Simulation:
         # heat_transfer: those chambers carry a gas temperature [K] and step in Python
         self._thermal, self._conductance = self.effects.heat_arrays(robot)
         self._thermal_any = bool(self._thermal.any())
+        # line_dynamics (lumped_rc): those chambers' valves fill a tube at its own pressure, a
+        # state stepped in Python after the chambers' step (_tube_update)
+        tube_v, self._tube_tau = self.effects.tube_arrays(robot)
+        self._tubes = np.nonzero(tube_v > 0)[0]
+        self._tube_v = tube_v
+        both = [f"{a}.{c}" for i, (a, c) in enumerate(robot.chamber_names) if tube_v[i] > 0 and self._thermal[i]]
+        if both:
+            raise ConfigError(f"chamber(s) {', '.join(both)}: a lumped line (line_dynamics, lumped_rc) and "
+                              "heat_transfer at one chamber are not simulated together")
         self._compiled_args = None  # physics_steps' arguments, built at the first step
         self._step_call = None  # step_call.StepCall of them
         self._command_caller = None  # step_call.CommandCall of command_step_args
         #: physics steps run in one compiled loop (:func:`pneumatics.kernel.physics_steps`)
-        self.compiled_steps = kernel == "fast" and MUJOCO_FUNCTIONS is not None and not self._thermal_any
+        self.compiled_steps = (kernel == "fast" and MUJOCO_FUNCTIONS is not None and not self._thermal_any
+                               and self._tubes.size == 0)
         self.gas_temperature = np.full(robot.tables.n_chambers, robot.tables.gas.temperature_k)
         self.spool = np.zeros(self.tables.n_chambers)  # command the spool follows (hysteresis)
         self.spool_position = np.zeros(self.tables.n_chambers)  # the spool after lag and line delay
         n_ch = self.tables.n_chambers
         self.pressure = np.full(n_ch, self.tables.room_pa)
+        #: the lumped lines' tube pressures [Pa abs] (line_dynamics, lumped_rc; the chamber's elsewhere)
+        self.tube_pressure = self.pressure.copy()
         self.command = np.array(self.tables.valve[:, 0])  # each valve's null
         self.areas = np.zeros((n_ch, 2))  # valve (supply, exhaust) areas [m^2] at self.command
         #: the valves' (supply, exhaust) land clearance conductances [kg/(s Pa)] at the spool
@@ -195,6 +210,7 @@ class Simulation:
             k, _, drive_qadr, _ = self._drive
             self.data.qpos[drive_qadr] = self.data.qpos[self._qadr[k]]  # backlash: drive at the link
         self.pressure[:] = self.tables.room_pa if pressure is None else pressure
+        self.tube_pressure[:] = self.pressure
         self.gas_temperature[:] = self.tables.gas.temperature_k
         self.command[:] = self.tables.valve[:, 0]
         self.spool[:] = self.command
@@ -445,6 +461,8 @@ class Simulation:
 
     def _fluid_update(self):
         length = self.data.actuator_length[self._ids]
+        if self._tubes.size:  # the lumped lines' chambers, again from the same start (_tube_update)
+            start = (self.pressure.copy(), self._prev_length.copy(), float(self._packed[2][13]))
         if self._thermal.any():
             self._thermal_update(length)
         elif self.kernel == "fast":
@@ -457,6 +475,37 @@ class Simulation:
                                                 self.clearance)
             self._supply_after(self.pressure)
             self._prev_length[:] = length
+        if self._tubes.size:
+            self._tube_update(*start, length)
+
+    def _tube_update(self, p_old, prev_length, supply_pa: float, length):
+        """The lumped lines' chambers over the step just taken, from its start: each valve fills
+        its tube, the tube its chamber (effects.line_dynamics.rc_line_step), the chamber's leaks
+        held at their start-of-step flows.  The supply droop's draw is the one the step above
+        took, at the chamber pressures (the tube's differ from them by a few kPa)."""
+        tab, gas = self.tables, self.tables.gas
+        rt, n, room = gas.gas_constant_j_per_kg_k * gas.temperature_k, gas.polytropic_exponent, tab.room_pa
+        volume, volume_rate = chamber_geometry(tab, prev_length, length, self.dt)
+        other = leak_flows(tab, p_old)  # the clearance's flows enter the tube (valve_flow)
+        for c in self._tubes:
+            a_s, a_e = self.areas[c]
+            g_s, g_e = self.clearance[c]
+            if self.kernel == "fast":  # the compiled twin (pneumatics.tube_kernel)
+                self.tube_pressure[c], self.pressure[c] = rc_line_step_compiled(
+                    float(self.tube_pressure[c]), float(p_old[c]), float(volume[c]), float(volume_rate[c]),
+                    float(self._tube_v[c]), float(self._tube_tau[c]), float(a_s), float(a_e), float(g_s), float(g_e),
+                    supply_pa, float(other[c]), self._packed[2], self.dt)
+                continue
+
+            def valve_flow(q, a_s=a_s, a_e=a_e, g_s=g_s, g_e=g_e):
+                m_s, _, dms = orifice_flow(a_s, supply_pa, q, gas)
+                m_e, dme, _ = orifice_flow(a_e, q, room, gas)
+                m_c, dmc = clearance_flows(g_s, g_e, q, supply_pa, room)
+                return float(m_s - m_e + m_c), float(dms - dme + dmc)
+            self.tube_pressure[c], self.pressure[c] = rc_line_step(
+                float(self.tube_pressure[c]), float(p_old[c]), float(volume[c]), float(volume_rate[c]),
+                float(self._tube_v[c]), float(self._tube_tau[c]), valve_flow, float(other[c]), n, rt, self.dt)
+        self.data.ctrl[self._ids] = actuator_force(tab, self.pressure)
 
     def _supply_after(self, p):
         """The reference path's supply pressure in effect for the next step (glob[13]; the

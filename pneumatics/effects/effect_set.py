@@ -90,7 +90,10 @@ class EffectSet:
     slew_limit form): its speed is bounded by COMMAND_SPAN_V / that time"""
     line_dynamics: dict = field(default_factory=dict)
     """chamber -> {"delay_s": transport delay of the tube between valve and chamber [s],
-    "volume_m3": the tube's volume, added to the chamber's dead volume [m^3]} (line_dynamics)"""
+    "volume_m3": the tube's volume, added to the chamber's dead volume [m^3]} (line_dynamics), or
+    (its lumped_rc form) {"tube_volume_m3": the tube's volume at its own pressure [m^3],
+    "tube_time_constant_s": its resistance's time constant [s]}: the tube's pressure is a state
+    (effects/line_dynamics.rc_line_step) and such a simulation steps in Python"""
     heat_transfer: dict = field(default_factory=dict)
     """chamber -> {"conductance_w_k": h A_w between gas and wall [W/K]} (heat_transfer): the chamber
     carries its gas temperature and follows the energy equation (effects/heat_transfer.thermal_step,
@@ -167,6 +170,10 @@ class EffectSet:
     def line_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
         """(delay_s, volume_m3), each (n_ch,), of the line_dynamics effects."""
         return self._chamber_fields(robot, "line_dynamics", {"delay_s": 0.0, "volume_m3": 0.0})
+
+    def tube_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
+        """(tube_volume_m3, time_constant_s), each (n_ch,), of the lumped_rc lines (volume 0 elsewhere)."""
+        return self._chamber_fields(robot, "line_dynamics", {"tube_volume_m3": 0.0, "tube_time_constant_s": 0.01})
 
     def underlap_arrays(self, robot) -> tuple[np.ndarray, np.ndarray]:
         """(area_m2, width_v), each (n_ch,), of the underlapped valves (area 0 elsewhere)."""
