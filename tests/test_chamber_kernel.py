@@ -42,6 +42,15 @@ EFFECTS = {
     "supply_reservoir": {"supply_droop_pa_per_kg_s": 3e7, "supply_droop_tau_s": 0.004},
     "regulator_orifice": {"supply_droop_pa_per_kg2_s2": 5e10, "supply_droop_tau_s": 0.004},
     "line_volume": {"extra_volume_m3": np.array([0.0, 2e-6, 1e-6, 0.0])},
+    "lumped_line": {"tube_volume_m3": np.array([2e-6, 0.0, 5e-7, 0.0]),
+                    "tube_time_constant_s": np.array([0.01, 0.01, 0.004, 0.01])},
+    "lumped_line_with_leaks_and_heat": {"tube_volume_m3": np.array([1e-6, 0.0, 0.0, 3e-6]),
+                                        "tube_time_constant_s": np.array([0.006, 0.01, 0.01, 0.015]),
+                                        "heat_w_k": np.array([0.2, 0.1, np.nan, 0.3]),
+                                        "piston_leak_m2": np.array([3e-8, 0.0]),
+                                        "external_leak_g": np.array([2e-11, 0.0, 0.0, 1e-11]),
+                                        "valve_clearance_g": np.array([4e-11, 0.0, 0.0, 2e-11]),
+                                        "supply_droop_pa_per_kg_s": 3e7},
     "wall_compliance": {"wall_compliance_m3_pa": np.array([0.0, 2e-12, 0.0, 5e-13]), "piston_leak_m2": np.array([0.0, 2e-8])},
     "heat_transfer": {"heat_w_k": np.array([0.2, np.nan, 0.05, 0.3])},
     "heat_transfer_with_leaks": {"heat_w_k": np.array([0.2, 0.1, np.nan, np.nan]), "piston_leak_m2": np.array([3e-8, 0.0]),
@@ -61,8 +70,20 @@ def _mods(name):
 @given(st.sampled_from(sorted(EFFECTS)), st.integers(0, 2**32 - 1))
 def test_compiled_step_matches_the_numpy_reference(effect, seed):
     """Random pressures (room to supply), gas temperatures (250-350 K), commands (0-10 V) and
-    piston motions (up to 0.5 m/s): three successive steps agree to 1e-10 relative, pressures
-    and temperatures (the droop carries the supply flow over)."""
+    piston motions (up to 0.5 m/s): three successive steps agree to 1e-10 relative, pressures,
+    temperatures and tube pressures (the droop carries the supply flow over)."""
+    _three_steps_agree(effect, seed)
+
+
+@pytest.mark.parametrize("effect", ["lumped_line", "lumped_line_with_leaks_and_heat"])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_lumped_line_step_matches_the_numpy_reference(effect, seed):
+    """The lumped line's own state, the tube pressure, in every draw (the random test above
+    samples a few of its many effects)."""
+    _three_steps_agree(effect, seed)
+
+
+def _three_steps_agree(effect, seed):
     rng = np.random.default_rng(seed)
     tab = ROBOT.tables
     a, b = ChamberModel(ROBOT, _mods(effect), W), ChamberModel(ROBOT, _mods(effect), W)
@@ -76,6 +97,7 @@ def test_compiled_step_matches_the_numpy_reference(effect, seed):
         p_a, p_b = a.step(p_a, u, x, x1), b.step_reference(p_b, u, x, x1)
         np.testing.assert_allclose(p_a, p_b, rtol=1e-10)
         np.testing.assert_allclose(a.T, b.T, rtol=1e-10)
+        np.testing.assert_allclose(a.p_tube, b.p_tube, rtol=1e-10)
         x = x1
     assert np.all(np.isfinite(p_a)) and np.all(p_a > 0)
 
@@ -89,7 +111,7 @@ def experiment():
 
 @pytest.mark.parametrize("effect", ["nominal", "valve_leak", "piston_leak", "supply_droop", "supply_reservoir",
                                     "regulator_orifice", "heat_transfer_with_leaks",
-                                    "laminar_leaks", "wall_compliance"])
+                                    "laminar_leaks", "wall_compliance", "lumped_line_with_leaks_and_heat"])
 def test_compiled_replay_matches_the_numpy_replay(experiment, effect, monkeypatch):
     """A whole pressure replay (1 s windows over 4 s of a published recording) through the compiled loop
     and step equals the numpy reference's (a Python loop of numpy steps) to 1e-9 relative."""
@@ -105,7 +127,7 @@ def test_compiled_replay_matches_the_numpy_replay(experiment, effect, monkeypatc
 
 
 @pytest.mark.parametrize("effect", ["nominal", "valve_underlap", "valve_clearance", "supply_reservoir",
-                                    "heat_transfer_with_leaks", "receiver"])
+                                    "heat_transfer_with_leaks", "receiver", "lumped_line"])
 @pytest.mark.parametrize("averaged", [True, False])
 def test_the_compiled_loop_over_the_fine_steps_is_its_python_loop_to_the_bit(effect, averaged):
     """ChamberModel.run_windows (chamber_kernel.replay_batch) against run_windows_reference, the
@@ -128,6 +150,7 @@ def test_the_compiled_loop_over_the_fine_steps_is_its_python_loop_to_the_bit(eff
     slow = models[1].run_windows_reference(p0, u, travel, first, H, S, averaged, receiver)
     np.testing.assert_array_equal(fast, slow)
     np.testing.assert_array_equal(models[0].T, models[1].T)
+    np.testing.assert_array_equal(models[0].p_tube, models[1].p_tube)
     np.testing.assert_array_equal(*(m._kernel_args[SUPPLY_FLOW_ARG] for m in models))
     np.testing.assert_array_equal(models[0].supply_shift, models[1].supply_shift)
     assert np.all(np.isfinite(fast)) and np.ptp(fast) > 1e3

@@ -84,6 +84,9 @@ PRESSURE_CASES = [
     ("valve_lag", "slew_limit", "elbow.b", {"full_stroke_time_s": 0.4}, 400.0, 8.0),
     # the delayed spool rings the loop likewise (~130 Pa on both elbow chambers)
     ("line_dynamics", "delay_volume", "elbow.a", {"delay_s": 0.02, "volume_m3": 2e-6}, 200.0, 10.0),
+    # the tube's pressure starts at the chamber's in every replay window (its true one differs
+    # by the flow through the resistance); the generator's tubes of 1-3 cm^3 and 5-15 ms
+    ("line_dynamics", "lumped_rc", "elbow.a", {"tube_volume_m3": 2e-6, "time_constant_s": 0.01}, 200.0, 10.0),
     ("heat_transfer", "newton", "shoulder.a", {"conductance_w_k": 0.1}, 100.0, 10.0),
     ("pressure_sensor_offset", "additive", "elbow.b", {"offset_pa": 1.5e4}, 100.0, 10.0),
     # a sensor warming up: the reading's offset settles from 3 to 18 kPa within the recording

@@ -17,7 +17,9 @@ Arrays (C chambers, ordered a, b per actuator; W windows):
   laminar forms' conductances [kg/(s Pa)], pneumatics.effects.external_leak.laminar_flow);  m_supply (W,) total supply flow of the last
   step [kg/s], low-passed with the droop's time constant glob[14] (read for the droop, then updated);  glob as in :mod:`pneumatics.kernel`;
   wall (C,) a compliant wall's dV/dp [m^3/Pa] (0: rigid);  supply_shift (W,) each window's supply
-  pressure minus the table's [Pa] (a receiver's, supply_receiver).
+  pressure minus the table's [Pa] (a receiver's, supply_receiver);  tube_m3, tube_tau_s (C,) a
+  lumped line's tube volume [m^3] (0: none) and time constant [s], p_tube (W, C) its pressure
+  [Pa] (a state; NaN until the first step starts it settled).
 """
 from __future__ import annotations
 
@@ -28,6 +30,7 @@ import numpy as np
 
 from pneumatics.effects.valve_leak import COVER_MIN
 from pneumatics.kernel import GAMMA, QUADRATIC_DROOP, clearance_flow_compiled, orifice_flow_compiled
+from pneumatics.tube_kernel import rc_line_step_compiled, tube_quasi_steady_compiled
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -150,13 +153,18 @@ def _thermal(p, T, vol, vdot, a_s, a_e, ps, hA, extra, glob):
 def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2,
                leak_width_v, underlap_m2, underlap_width_v, clearance_g, clearance_width_v,
                external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, dead_m3, area_m2, m_supply, glob,
-               out, heat_w_k, T, wall, supply_shift):
+               out, heat_w_k, T, wall, supply_shift, tube_m3, tube_tau_s, p_tube):
     """One linearly implicit ROS2 step (chamber.integrate's stages, fixed dt) for every window.
 
     Chambers with a finite ``heat_w_k`` (C,) [W/K] carry their gas temperature ``T`` (W, C) [K]
     (updated in place) and follow the energy equation instead (heat_transfer), the leaks held
     over the step at their start-of-step flows, as in ChamberModel._thermal_step (a compliant
-    ``wall`` (C,) [m^3/Pa] is not carried there: the check that uses it fits no heat transfer)."""
+    ``wall`` (C,) [m^3/Pa] is not carried there: the check that uses it fits no heat transfer).
+    Chambers with a tube volume ``tube_m3`` (C,) > 0 [m^3] behind a resistance of time constant
+    ``tube_tau_s`` (C,) [s] (line_dynamics, lumped_rc) carry the tube's pressure ``p_tube``
+    (W, C) [Pa] (updated in place; NaN: it starts settled, tube_quasi_steady) and take the lumped line's
+    step instead (pneumatics.tube_kernel), their leaks held likewise; neither heat transfer nor
+    a compliant wall is carried there."""
     W, C = p.shape
     dt, droop, droop2 = glob[10], glob[12], glob[QUADRATIC_DROOP]
     follow = dt / (glob[14] + dt)  # the reservoir form's low-pass of the supply flow (effects.supply_droop)
@@ -190,32 +198,48 @@ def step_batch(p, u, travel0, travel1, rows, supply_scale, exhaust_scale, valve_
             total += max(m_s[c], 0.0)
         m_supply[w] += (total - m_supply[w]) * follow
         for c in range(C):
-            if not math.isfinite(heat_w_k[c]):
+            tube = tube_m3[c] > 0.0
+            if not (tube or math.isfinite(heat_w_k[c])):
                 continue
-            extra = 0.0
-            room = glob[9]
-            if external_leak_m2[c] > 0.0:
-                extra -= orifice_flow_compiled(external_leak_m2[c], p[w, c], room, glob)[0]
-            if external_leak_g[c] > 0.0:
-                extra -= external_leak_g[c] * (p[w, c] - room) * (p[w, c] + room) / (2.0 * room)
+            extra = _chamber_leaks(p[w], c, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, glob)
+            if tube:  # the lands' clearance flows enter the tube (tube_kernel._valve_into_tube)
+                if not math.isfinite(p_tube[w, c]):  # a window's start: the tube settled
+                    p_tube[w, c] = tube_quasi_steady_compiled(p[w, c], tube_m3[c], tube_tau_s[c], a_s[c], a_e[c],
+                                                              g_s[c], g_e[c], ps, glob)
+                p_tube[w, c], out[w, c] = rc_line_step_compiled(p_tube[w, c], p[w, c], vol[c], vdot[c], tube_m3[c],
+                                                                tube_tau_s[c], a_s[c], a_e[c], g_s[c], g_e[c], ps,
+                                                                extra, glob, dt)
+                continue
             if g_s[c] > 0.0 or g_e[c] > 0.0:
-                extra += clearance_flow_compiled(p[w, c], g_s[c], g_e[c], ps, room)
-            j = c // 2
-            pa, pb = p[w, 2 * j], p[w, 2 * j + 1]
-            mab = 0.0
-            if piston_leak_m2[j] > 0.0:
-                mab += orifice_flow_compiled(piston_leak_m2[j], pa, pb, glob)[0]
-            if piston_leak_g[j] > 0.0:
-                mab += piston_leak_g[j] * (pa - pb) * (pa + pb) / (2.0 * room)
-            extra += -mab if c == 2 * j else mab
+                extra += clearance_flow_compiled(p[w, c], g_s[c], g_e[c], ps, glob[9])
             out[w, c], T[w, c] = _thermal(p[w, c], T[w, c], vol[c], vdot[c], a_s[c], a_e[c], ps, heat_w_k[c], extra, glob)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _chamber_leaks(q, c, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g, glob):
+    """The flow [kg/s] into chamber c at pressures q (C,) through its external and piston leaks
+    (orifice and laminar forms): held over a step by the thermal and the lumped line's steps."""
+    room = glob[9]
+    extra = 0.0
+    if external_leak_m2[c] > 0.0:
+        extra -= orifice_flow_compiled(external_leak_m2[c], q[c], room, glob)[0]
+    if external_leak_g[c] > 0.0:
+        extra -= external_leak_g[c] * (q[c] - room) * (q[c] + room) / (2.0 * room)
+    j = c // 2
+    pa, pb = q[2 * j], q[2 * j + 1]
+    mab = 0.0
+    if piston_leak_m2[j] > 0.0:
+        mab += orifice_flow_compiled(piston_leak_m2[j], pa, pb, glob)[0]
+    if piston_leak_g[j] > 0.0:
+        mab += piston_leak_g[j] * (pa - pb) * (pa + pb) / (2.0 * room)
+    return extra - mab if c == 2 * j else extra + mab
 
 
 @numba.njit(cache=True, error_model="numpy")
 def replay_batch(p, u_fine, travel, first, horizon, n_sub, averaged, receiver, supply_pa, rows, supply_scale,
                  exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2, leak_width_v, underlap_m2, underlap_width_v,
                  clearance_g, clearance_width_v, external_leak_m2, piston_leak_m2, external_leak_g, piston_leak_g,
-                 dead_m3, area_m2, m_supply, glob, heat_w_k, T, wall, supply_shift, out):
+                 dead_m3, area_m2, m_supply, glob, heat_w_k, T, wall, supply_shift, tube_m3, tube_tau_s, p_tube, out):
     """pneumatic.replay's loop over the fine steps, compiled: every window w starts at fine step
     ``first[w]`` from pressures ``p`` (W, C) and is stepped by :func:`step_batch` ``horizon`` x
     ``n_sub`` times with its commands ``u_fine`` (F, C) and travels ``travel`` (F, C); ``out``
@@ -240,7 +264,7 @@ def replay_batch(p, u_fine, travel, first, horizon, n_sub, averaged, receiver, s
         step_batch(p, u, t0, t1, rows, supply_scale, exhaust_scale, valve_leak_m2, valve_leak_exhaust_m2,
                    leak_width_v, underlap_m2, underlap_width_v, clearance_g, clearance_width_v, external_leak_m2,
                    piston_leak_m2, external_leak_g, piston_leak_g, dead_m3, area_m2, m_supply, glob, nxt, heat_w_k, T,
-                   wall, supply_shift)
+                   wall, supply_shift, tube_m3, tube_tau_s, p_tube)
         p, nxt = nxt, p
         acc += p
         if (step + 1) % n_sub == 0:

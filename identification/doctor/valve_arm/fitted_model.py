@@ -40,7 +40,7 @@ def fitted_model(robot, report: dict, final_params: list, cal_stderr: dict) -> F
         if f["effect"] == "stiction":  # the doctor's Stribeck velocity, fixed (replay.MechMods.torque)
             params["stribeck_rad_s"] = {"value": STRIBECK_RAD_S, "stderr": 0.0}
         e = FittedEffect(f["effect"], form_of(f["effect"], params), dict(f["where"]), params)
-        if e.family == "line_dynamics":
+        if (e.family, e.form) == ("line_dynamics", "delay_volume"):
             _split_line_volume(robot, e, cal)
         effects.append(e)
     d = report["diagnostics"]
@@ -129,6 +129,7 @@ _PNEUMATIC_FORMS = {
     ("valve_lag", "dead_time"): ("dead_time_s",),   # no hypothesis of its own: naming.line_named
     ("valve_lag", "slew_limit"): ("full_stroke_time_s",),
     ("line_dynamics", "delay_volume"): ("delay_s",),
+    ("line_dynamics", "lumped_rc"): ("tube_volume_m3", "time_constant_s"),
     ("heat_transfer", "newton"): ("conductance_w_k",),
     ("pressure_sensor_offset", "additive"): ("offset_pa",),
     ("pressure_sensor_offset", "warm_up_drift"): ("offset_pa", "drift_pa", "time_constant_s"),

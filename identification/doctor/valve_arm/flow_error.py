@@ -38,11 +38,15 @@ from scipy.signal import lfilter
 
 from identification.base.smoothing import discrepancy_lambda
 
+from pneumatics.effects.line_dynamics import tube_conductance
 from pneumatics.effects.supply_droop import droop_pa
+from pneumatics.kernel import pack_glob
 from pneumatics.medium import orifice_flow
+from pneumatics.tube_kernel import tube_path_compiled
 
 from .data import FINE_DT, Experiment, fine_pressures
 from .pneumatic import ChamberModel, PneumaticMods, drive_side_lengths, effective_commands, model_areas
+from .tubes import has_tubes, tube_valve
 from .receiver import receiver_trajectory
 
 #: the groups of a chamber's correction, in the order the report lists them
@@ -120,6 +124,27 @@ class _Valves:
         return m_s, m_e, d_ps
 
 
+def tube_flows(exp: Experiment, mods: PneumaticMods, p: np.ndarray, u_fine: np.ndarray) -> dict:
+    """{chamber: (F - 1,) the flow [kg/s] its lumped line's tube passes it over each 1 ms step}
+    (line_dynamics, lumped_rc): G (p_t - p) at the steps' midpoints, the tube's pressure p_t
+    stepped along the recording against the chamber's measured pressure ``p`` (F, C) with the
+    valve at ``u_fine`` (F, C) (pneumatics.tube_kernel.tube_path_compiled, nominal supply)."""
+    if not has_tubes(mods):
+        return {}
+    tab = exp.robot.tables
+    model = ChamberModel(exp.robot, mods, 1)
+    glob = pack_glob(tab.gas, tab.supply_pa, tab.room_pa, FINE_DT, 0.0)
+    out = {}
+    for c in np.nonzero(mods.tube_volume_m3 > 0)[0]:
+        v, tau = float(mods.tube_volume_m3[c]), float(mods.tube_time_constant_s[c])
+        path = np.empty(p.shape[0])
+        tube_path_compiled(np.ascontiguousarray(p[:, c]), *tube_valve(tab, mods, u_fine[:, c], c), v, tau,
+                           float(tab.supply_pa), glob, path)
+        g = float(tube_conductance(v, tau, model.n, model.rt))
+        out[int(c)] = g * (0.5 * (path[1:] + path[:-1]) - 0.5 * (p[1:, c] + p[:-1, c]))
+    return out
+
+
 def smoothed_pressures(exp: Experiment) -> np.ndarray:
     """(F, C) measured pressures on the 1 ms grid: a smoothing spline through the DAQ means at
     the sensor's noise level (discrepancy principle, identification.base.smoothing), so that the
@@ -156,6 +181,8 @@ def flow_blocks(exp: Experiment, mods: PneumaticMods, block: int) -> FlowBlocks:
     # the lands' clearance flows from the drooped supply, as the replays' (chamber_kernel)
     ps_valves = valves.ps if mods.valve_clearance_g is None else valves.supply_pressure(model_areas(tab, mods, u_eff)[0])
     m_model = m_s - m_e - leak_x + mods.valve_clearance_flow(u_eff, tab.valve[:, 0], p_mid, ps_valves, room)[0]
+    for c, m_tube in tube_flows(exp, mods, p, u_all).items():  # a lumped line: its tube feeds the chamber
+        m_model[:, c] = m_tube - leak_x[:, c] if np.ndim(leak_x) else m_tube - leak_x
     if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
         m_ab = mods.piston_leak_flow(p_mid, room, gas)[0]
         m_model = m_model.copy()

@@ -32,6 +32,7 @@ from .chamber_kernel import replay_batch, step_batch
 from .data import FINE_DT, Experiment, fine_pressures
 from .receiver import compressor_of, measured_supply_flow, receiver_trajectory
 from .thermal import gas_temperatures
+from .tubes import has_tubes, start_tubes, tube_step_reference
 
 
 #: the place of the windows' low-passed supply flow (W,) [kg/s] among the compiled step's
@@ -66,6 +67,8 @@ class PneumaticMods:
     stroke_time_s: np.ndarray = None          # the spool's least full-stroke time (valve_lag, slew_limit)
     delay_s: np.ndarray = None                # command dead time
     extra_volume_m3: np.ndarray = None        # line volume added to the dead volume
+    tube_volume_m3: np.ndarray = None         # a lumped line's tube at its own pressure [m^3] (line_dynamics, lumped_rc)
+    tube_time_constant_s: np.ndarray = None   # ... its resistance's time constant [s]
     sensor_offset_pa: np.ndarray = None       # measured = true + offset
     sensor_drift_pa: np.ndarray = None        # + drift (1 - exp(-t / tau)), a sensor warming up
     sensor_drift_tau_s: np.ndarray = None     # its time constant tau [s] (0: no drift)
@@ -222,8 +225,12 @@ class ChamberModel:
         self.m_supply_total = np.zeros((batch, 1))
         # heat_transfer: these chambers carry a gas temperature T (W, C) [K]; set T before stepping
         self.thermal = np.array([], int) if mods.heat_w_k is None else np.nonzero(np.isfinite(mods.heat_w_k))[0]
+        if mods.tube_volume_m3 is not None:  # a lumped line's chamber takes the tube's step instead (chamber_kernel)
+            self.thermal = self.thermal[~(np.asarray(mods.tube_volume_m3)[self.thermal] > 0)]
         n_step = tab.n_chambers if chambers is None else len(chambers)
         self.T = np.full((batch, n_step), self.gas.temperature_k)
+        # line_dynamics (lumped_rc): the tubes' pressures (W, C) [Pa], NaN until a step starts them settled
+        self.p_tube = np.full((batch, n_step), np.nan)
         self.supply_shift = np.zeros(batch)  # (W,) the supply pressure's departure from the table's [Pa] (a receiver)
         self._kernel_args = self._pack_kernel()
 
@@ -253,7 +260,8 @@ class ChamberModel:
                 per(mods.valve_clearance_g), per(mods.valve_clearance_width_v, CLEARANCE_WIDTH_V),
                 per(mods.external_leak_m2), per_cylinder(mods.piston_leak_m2),
                 per(mods.external_leak_g), per_cylinder(mods.piston_leak_g), per(self.dead), per(tab.area),
-                np.zeros(self.W), glob, per(mods.heat_w_k, np.nan), per(mods.wall_compliance_m3_pa))
+                np.zeros(self.W), glob, per(mods.heat_w_k, np.nan), per(mods.wall_compliance_m3_pa),
+                per(mods.tube_volume_m3), per(mods.tube_time_constant_s, 0.01))
 
     def travel(self, length):
         """Chamber travel (W, C) from actuator lengths (W, n_act)."""
@@ -267,14 +275,17 @@ class ChamberModel:
 
         Compiled (identification.doctor.valve_arm.chamber_kernel); :meth:`step_reference` is its numpy twin.
         Chambers with heat_transfer update their gas temperatures ``self.T`` (W, C) [K]."""
-        rows, ss, es, vl, vle, vw, ul, uw, cg, cw, xl, pl, xg, pg, dead, area, m_sup, glob, heat, wall = self._kernel_args
+        rows, ss, es, vl, vle, vw, ul, uw, cg, cw, xl, pl, xg, pg, dead, area, m_sup, glob, heat, wall, tv, tt = \
+            self._kernel_args
         out = np.empty_like(p)
         W = p.shape[0]
         T = np.ascontiguousarray(self.T[:W], float)
+        p_tube = np.ascontiguousarray(self.p_tube[:W], float)
         step_batch(np.ascontiguousarray(p, float), np.ascontiguousarray(u, float), np.ascontiguousarray(travel0, float),
                    np.ascontiguousarray(travel1, float), rows, ss, es, vl, vle, vw, ul, uw, cg, cw, xl, pl, xg, pg, dead, area,
-                   m_sup[:W], glob, out, heat, T, wall, self.supply_shift[:W])
+                   m_sup[:W], glob, out, heat, T, wall, self.supply_shift[:W], tv, tt, p_tube)
         self.T[:W] = T
+        self.p_tube[:W] = p_tube
         return out
 
     def run_windows(self, p, u_fine, travel, first, horizon: int, n_sub: int, averaged: bool, receiver):
@@ -283,16 +294,19 @@ class ChamberModel:
         ``averaged``), commands ``u_fine`` and travels ``travel`` (F, C) on the fine grid, the
         supply following ``receiver`` (F,) [Pa] if not None.  Compiled
         (chamber_kernel.replay_batch); :meth:`run_windows_reference` is its Python twin."""
-        rows, ss, es, vl, vle, vw, ul, uw, cg, cw, xl, pl, xg, pg, dead, area, m_sup, glob, heat, wall = self._kernel_args
+        rows, ss, es, vl, vle, vw, ul, uw, cg, cw, xl, pl, xg, pg, dead, area, m_sup, glob, heat, wall, tv, tt = \
+            self._kernel_args
         W, C = p.shape
         out = np.zeros((W, horizon, C))
         T = np.ascontiguousarray(self.T[:W], float)
+        p_tube = np.ascontiguousarray(self.p_tube[:W], float)
         path = np.zeros(0) if receiver is None else np.ascontiguousarray(receiver, float)
         replay_batch(np.array(p, float), np.ascontiguousarray(u_fine, float), np.ascontiguousarray(travel, float),
                      np.ascontiguousarray(first, np.int64), int(horizon), int(n_sub), bool(averaged), path,
                      float(self.tab.supply_pa), rows, ss, es, vl, vle, vw, ul, uw, cg, cw, xl, pl, xg, pg, dead, area,
-                     m_sup[:W], glob, heat, T, wall, self.supply_shift[:W], out)
+                     m_sup[:W], glob, heat, T, wall, self.supply_shift[:W], tv, tt, p_tube, out)
         self.T[:W] = T
+        self.p_tube[:W] = p_tube
         return out
 
     def run_windows_reference(self, p, u_fine, travel, first, horizon: int, n_sub: int, averaged: bool, receiver):
@@ -314,6 +328,15 @@ class ChamberModel:
     def areas(self, u):
         """(supply, exhaust) valve areas (W, C) [m^2] at commands u (W, C) [V]: :func:`model_areas`."""
         return model_areas(self.tab, self.mods, u)
+
+    def kernel_glob(self) -> np.ndarray:
+        """The compiled step's gas and plant constants (pneumatics.kernel.pack_glob's array)."""
+        return self._kernel_args[17]
+
+    def start_tubes(self, exp: Experiment, u_fine: np.ndarray, first: np.ndarray) -> None:
+        """The lumped lines' tube pressures where the windows start (fine steps ``first`` (W,)),
+        ``u_fine`` (F, C) every chamber's effective commands (tubes.start_tubes)."""
+        start_tubes(self, exp, u_fine, first)
 
     def start_supply(self, exp: Experiment, u_fine: np.ndarray, first: np.ndarray) -> np.ndarray | None:
         """The supply's states where the windows start (fine steps ``first`` (W,)): the
@@ -382,6 +405,8 @@ class ChamberModel:
             p_new = np.where(bad, p, p_new)
         if self.thermal.size:
             p_new = self._thermal_step(p, p_new, u, a_s, a_e, vol, vdot, ps)
+        if has_tubes(mods):
+            p_new = tube_step_reference(self, p, p_new, u, a_s, a_e, vol, vdot, ps)
         if droop:
             self.m_supply_total = filtered_flow(self.m_supply_total, np.maximum(m_s, 0).sum(axis=1, keepdims=True),
                                                 mods.supply_droop_tau_s, FINE_DT)
@@ -506,6 +531,7 @@ def replay(exp: Experiment, win: Windows, mods: PneumaticMods, chambers: np.ndar
     if model.thermal.size:
         model.T = np.ascontiguousarray(gas_temperatures(exp, mods, u_all)[k0 * S][:, cols])
     receiver = model.start_supply(exp, u_all, k0 * S)
+    model.start_tubes(exp, u_all, k0 * S)
     out = model.run_windows(p, u_f, travel, k0 * S, H, S, exp.averaged, receiver)
     idx = k0[:, None] + 1 + np.arange(H)[None]
     offset = mods.sensor_offsets(exp.clock_at()[idx])

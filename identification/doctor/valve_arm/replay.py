@@ -204,6 +204,7 @@ def coupled_replay(exp: Experiment, pmods: PneumaticMods, mmods: MechMods, horiz
     if chambers.thermal.size:
         chambers.T = gas_temperatures(exp, pmods, u_f)[starts * S]
     receiver = chambers.start_supply(exp, u_f, starts * S)
+    chambers.start_tubes(exp, u_f, starts * S)
     lengths = np.array([d.actuator_length[ids] for d in datas])
     travel0 = chambers.travel(lengths)
     tab = robot.tables
