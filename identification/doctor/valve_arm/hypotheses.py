@@ -49,6 +49,14 @@ HEAT_PROBE_W_K, HEAT_MAX_W_K = 0.1, 2.0
 LAMINAR_PROBE, LAMINAR_MAX = 1e-11, 4e-9
 
 
+#: the lumped line's tube volume: its probe step [m^3] (a 4 mm bore, 4 cm; arm2's dead volumes are
+#: 3-4 cm^3), its bound in the chamber's dead volumes; its resistance's time constant [s]: start
+#: and bounds (a tube of 1-3 cm^3 behind a few cm of fitting: a few to a few tens of ms,
+#: Richer & Hurmuzlu 2000 §3)
+TUBE_PROBE_M3, TUBE_MAX_DEAD_VOLUMES = 5e-7, 3.0
+TUBE_TAU_START_S, TUBE_TAU_MIN_S, TUBE_TAU_MAX_S = 0.008, 5e-4, 0.1
+
+
 def pneumatic_hypotheses(robot) -> list[Hypothesis]:
     out = []
     C = robot.tables.n_chambers
@@ -95,6 +103,14 @@ def pneumatic_hypotheses(robot) -> list[Hypothesis]:
             Hypothesis("line_dynamics", where, "pneumatic", [("delay_s", 0.0, 0.0, 0.15, 0.004)], [c],
                        adds_volume=float(robot.tables.dead_volume[c]),
                        apply=_apply("line_dynamics", robot, place)),
+            # the tube at its own pressure behind a laminar resistance (line_dynamics, lumped_rc):
+            # the valve fills the tube, the tube the chamber with a time constant; its volume is
+            # tested, the time constant a shape that starts at TUBE_TAU_START_S
+            Hypothesis("line_dynamics", where, "pneumatic",
+                       [("tube_volume_m3", 0.0, 0.0, TUBE_MAX_DEAD_VOLUMES * float(robot.tables.dead_volume[c]),
+                         TUBE_PROBE_M3),
+                        ("time_constant_s", TUBE_TAU_START_S, TUBE_TAU_MIN_S, TUBE_TAU_MAX_S, 0.002)], [c],
+                       apply=_apply("line_dynamics", robot, place, "lumped_rc"), tested=(0,)),
             Hypothesis("pressure_sensor_offset", where, "pneumatic", [("offset_pa", 0.0, -5e4, 5e4, 2000.0)], [c],
                        apply=_apply("pressure_sensor_offset", robot, place)),
             # a sensor warming up: its zero settles by drift_pa over time_constant_s from the

@@ -25,7 +25,10 @@ LINE_MIN_VOLUME_FRACTION = 0.15
 
 def line_named(run: DoctorRun, finding: Finding) -> Finding:
     """A line_dynamics finding without a line's volume renamed valve_lag (its dead-time form):
-    the data show the chamber seeing its valve late, and nothing of a tube."""
+    the data show the chamber seeing its valve late, and nothing of a tube.  A lumped line
+    (lumped_rc) is its tube's volume behind a resistance and stays a line."""
+    if "tube_volume_m3" in finding.params:
+        return finding
     volume = finding.params.get("volume_m3", {}).get("value", 0.0)
     c = finding.scored.hyp.chambers[0]
     dead = float(run.robot.tables.dead_volume[c])
