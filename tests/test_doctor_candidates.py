@@ -66,3 +66,30 @@ def test_a_valve_leak_through_either_land_passes_the_keep_rule():
     assert keeps(drift, [0.0, 8e3], [1e3, 1e3]) and not keeps(drift, [8e3, 0.0], [1e3, 1e3])
     both = SimpleNamespace(keep_mask=lambda: np.array([True, True]), any_tested=False)
     assert not keeps(both, [5.43e-10, 2.34e-9], [1.46e-10, 1.48e-10])
+
+
+def test_a_chamber_whose_held_out_replay_stands_out_has_its_best_other_family_fitted():
+    """search.standing_out_candidates: the chamber replaying 1.5 times the median held out gets
+    its best-scored hypothesis of a family not chosen there yet, whatever its score; chambers
+    near the median, and one a finding explains, get none."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from identification.doctor.valve_arm.hypothesis import Hypothesis
+    from identification.doctor.valve_arm.screening import Scored
+    from identification.doctor.valve_arm.search import standing_out_candidates
+
+    def scored(family, c, gain):
+        return Scored(Hypothesis(family, {"actuator": "x", "chamber": str(c)}, "pneumatic", [("p", 0, 0, 1, 1)], [c]),
+                      gain)
+    offset2, leak2, lag2, leak0 = scored("pressure_sensor_offset", 2, 0.03), scored("valve_leak", 2, 0.018), \
+        scored("valve_lag", 2, 0.001), scored("valve_leak", 0, 0.019)
+    ranked = [offset2, leak0, leak2, lag2]
+    rms = np.array([680.0, 796.0, 1151.0, 724.0])
+    run = SimpleNamespace(findings=[])
+    assert standing_out_candidates(run, rms, ranked, [offset2]) == [leak2]
+    assert standing_out_candidates(run, rms, ranked, []) == [offset2]
+    run.findings = [SimpleNamespace(scored=SimpleNamespace(hyp=SimpleNamespace(chambers=[2])))]
+    assert standing_out_candidates(run, rms, ranked, []) == []
+    assert standing_out_candidates(SimpleNamespace(findings=[]), np.full(4, 700.0), ranked, []) == []
