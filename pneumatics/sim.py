@@ -36,15 +36,14 @@ from .effects.effect_set import EffectSet
 from .effects.pressure_sensor_offset import offset_at
 from .effects.friction import friction_torque
 from .effects.heat_transfer import thermal_step
-from .effects.line_dynamics import rc_line_step
+from .effects.line_dynamics import rc_line_step, valve_into_tube
 from .effects.valve_hysteresis import play_step
 from .effects.valve_lag import lag_decay, slew_step_v
-from .effects.valve_leak import clearance_conductances, clearance_flows, leak_areas, underlap_areas
+from .effects.valve_leak import clearance_conductances, leak_areas, underlap_areas
 from . import arguments
 from .errors import ArgumentError, ConfigError, PneumasimError
 from .command_kernel import CLIPPED, OK
 from .kernel import MUJOCO_FUNCTIONS, RUNNING, fluid_step_fast, pack
-from .medium import orifice_flow
 from .tube_kernel import rc_line_step_compiled
 from .robot import Robot
 from .tables import valve_areas_table
@@ -496,15 +495,10 @@ class Simulation:
                     float(self._tube_v[c]), float(self._tube_tau[c]), float(a_s), float(a_e), float(g_s), float(g_e),
                     supply_pa, float(other[c]), self._packed[2], self.dt)
                 continue
-
-            def valve_flow(q, a_s=a_s, a_e=a_e, g_s=g_s, g_e=g_e):
-                m_s, _, dms = orifice_flow(a_s, supply_pa, q, gas)
-                m_e, dme, _ = orifice_flow(a_e, q, room, gas)
-                m_c, dmc = clearance_flows(g_s, g_e, q, supply_pa, room)
-                return float(m_s - m_e + m_c), float(dms - dme + dmc)
             self.tube_pressure[c], self.pressure[c] = rc_line_step(
                 float(self.tube_pressure[c]), float(p_old[c]), float(volume[c]), float(volume_rate[c]),
-                float(self._tube_v[c]), float(self._tube_tau[c]), valve_flow, float(other[c]), n, rt, self.dt)
+                float(self._tube_v[c]), float(self._tube_tau[c]), valve_into_tube(a_s, a_e, g_s, g_e, supply_pa, room, gas),
+                float(other[c]), n, rt, self.dt)
         self.data.ctrl[self._ids] = actuator_force(tab, self.pressure)
 
     def _supply_after(self, p):

@@ -8,9 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pneumatics.effects.line_dynamics import rc_line_step, tube_conductance, tube_quasi_steady
-from pneumatics.kernel import clearance_flow_compiled, pack_glob
-from pneumatics.medium import orifice_flow
+from pneumatics.effects.line_dynamics import rc_line_step, tube_conductance, tube_quasi_steady, valve_into_tube
+from pneumatics.kernel import pack_glob
 from pneumatics.robot import load_robot
 from pneumatics.tube_kernel import (PINNED_VOLUME_M3, rc_line_step_compiled, tube_quasi_steady_compiled,
                                     warm_tubes_compiled)
@@ -24,12 +23,7 @@ ROOM, SUPPLY = TAB.room_pa, TAB.supply_pa
 
 def valve(a_s, a_e, g_s=0.0, g_e=0.0):
     """The numpy valve flow into a tube at q: (mdot, d mdot / d q)."""
-    def flow(q):
-        m_s, _, dms = orifice_flow(a_s, SUPPLY, q, GAS)
-        m_e, dme, _ = orifice_flow(a_e, q, ROOM, GAS)
-        m_c = clearance_flow_compiled(q, g_s, g_e, SUPPLY, ROOM)
-        return float(m_s - m_e + m_c), float(dms - dme - (g_s + g_e) * q / ROOM)
-    return flow
+    return valve_into_tube(a_s, a_e, g_s, g_e, SUPPLY, ROOM, GAS)
 
 
 @settings(max_examples=60, deadline=None)

@@ -35,7 +35,7 @@ from .family import Family, param
 from .valve_dynamics import dead_time
 
 __all__ = ["DelayVolume", "LineDynamics", "LumpedRC", "dead_time", "rc_line_step", "rc_substeps",
-           "tube_conductance", "tube_quasi_steady"]
+           "tube_conductance", "tube_quasi_steady", "valve_into_tube"]
 
 #: the sub-steps of :func:`rc_line_step` keep h x (the tube's relaxation rate) at most this
 #: (for accuracy: the method is stable beyond)
@@ -62,6 +62,22 @@ class LumpedRC:
                                   0.0, 1e-3)
     time_constant_s: float = param(0.01, "time constant V_t / (n R T G) of the tube emptying through its "
                                    "resistance into a large chamber", "s", 1e-4, 1.0)
+
+
+def valve_into_tube(a_s: float, a_e: float, g_s: float, g_e: float, supply_pa: float, room_pa: float, gas):
+    """``valve_flow(p_t) -> (mdot, d mdot / d p_t)`` [kg/s, kg/(s Pa)] of :func:`rc_line_step`:
+    the valve's supply and exhaust orifices of areas ``a_s``, ``a_e`` [m^2] (medium.orifice_flow)
+    and its lands' clearances ``g_s``, ``g_e`` [kg/(s Pa)] (valve_leak.clearance_flows) into the
+    tube at p_t, from the supply at ``supply_pa`` and to the room."""
+    from ..medium import orifice_flow
+    from .valve_leak import clearance_flows
+
+    def valve_flow(q):
+        m_s, _, dms = orifice_flow(a_s, supply_pa, q, gas)
+        m_e, dme, _ = orifice_flow(a_e, q, room_pa, gas)
+        m_c, dmc = clearance_flows(g_s, g_e, q, supply_pa, room_pa)
+        return float(m_s - m_e + m_c), float(dms - dme + dmc)
+    return valve_flow
 
 
 def tube_conductance(tube_volume_m3, time_constant_s, n: float, rt: float):

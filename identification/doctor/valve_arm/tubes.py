@@ -12,9 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from pneumatics.effects.line_dynamics import rc_line_step, tube_conductance, tube_quasi_steady
-from pneumatics.effects.valve_leak import CLEARANCE_WIDTH_V, clearance_conductances, clearance_flows
-from pneumatics.medium import orifice_flow
+from pneumatics.effects.line_dynamics import rc_line_step, tube_conductance, tube_quasi_steady, valve_into_tube
+from pneumatics.effects.valve_leak import CLEARANCE_WIDTH_V, clearance_conductances
 from pneumatics.tube_kernel import warm_tubes_compiled
 from pneumatics.valve import valve_areas
 
@@ -90,11 +89,7 @@ def tube_step_reference(model, p, p_new, u, a_s, a_e, vol, vdot, ps):
     for c in np.nonzero(mods.tube_volume_m3 > 0)[0]:
         g = float(tube_conductance(mods.tube_volume_m3[c], mods.tube_time_constant_s[c], model.n, model.rt))
         for w in range(p.shape[0]):
-            def valve_flow(q, w=w, c=c):
-                m_s, _, dms = orifice_flow(a_s[w, c], ps[w, c], q, gas)
-                m_e, dme, _ = orifice_flow(a_e[w, c], q, room, gas)
-                m_c, dmc = clearance_flows(g_s[w, c], g_e[w, c], q, ps[w, c], room)
-                return float(m_s - m_e + m_c), float(dms - dme + dmc)
+            valve_flow = valve_into_tube(a_s[w, c], a_e[w, c], g_s[w, c], g_e[w, c], ps[w, c], room, gas)
             start = model.p_tube[w, c]
             if not np.isfinite(start):
                 start = tube_quasi_steady(float(p[w, c]), g, valve_flow, room, float(ps[w, c]))
