@@ -40,7 +40,6 @@ from identification.base.smoothing import discrepancy_lambda
 
 from pneumatics.effects.line_dynamics import tube_conductance
 from pneumatics.effects.supply_droop import droop_pa
-from pneumatics.kernel import pack_glob
 from pneumatics.medium import orifice_flow
 from pneumatics.tube_kernel import tube_path_compiled
 
@@ -133,7 +132,7 @@ def tube_flows(exp: Experiment, mods: PneumaticMods, p: np.ndarray, u_fine: np.n
         return {}
     tab = exp.robot.tables
     model = ChamberModel(exp.robot, mods, 1)
-    glob = pack_glob(tab.gas, tab.supply_pa, tab.room_pa, FINE_DT, 0.0)
+    glob = model.kernel_glob()
     out = {}
     for c in np.nonzero(mods.tube_volume_m3 > 0)[0]:
         v, tau = float(mods.tube_volume_m3[c]), float(mods.tube_time_constant_s[c])

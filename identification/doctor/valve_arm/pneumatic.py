@@ -116,9 +116,27 @@ class PneumaticMods:
         ``supply_pa`` and to the room (effects.valve_leak.clearance_flows); (0, 0) if none."""
         if self.valve_clearance_g is None:
             return 0.0, 0.0
+        return clearance_flows(*self.valve_clearance_conductances(u, null_v, cs), p, supply_pa, room_pa)
+
+    def valve_clearance_conductances(self, u, null_v, cs=slice(None)):
+        """(supply land, exhaust land) conductances [kg/(s Pa)] of the chambers ``cs``' valves at
+        commands ``u`` [V] (null ``null_v``): effects.valve_leak.clearance_conductances; (0, 0)
+        if none."""
+        if self.valve_clearance_g is None:
+            return 0.0, 0.0
         width = CLEARANCE_WIDTH_V if self.valve_clearance_width_v is None else self.valve_clearance_width_v[cs]
-        g_s, g_e = clearance_conductances(u, null_v, self.valve_clearance_g[cs], width)
-        return clearance_flows(g_s, g_e, p, supply_pa, room_pa)
+        return clearance_conductances(u, null_v, self.valve_clearance_g[cs], width)
+
+    def chamber_leak_flow(self, q, room_pa: float, gas):
+        """(W, C) the flow [kg/s] into each chamber at pressures ``q`` (W, C) through the external
+        and piston leaks (orifice and laminar forms), equal and opposite across a piston: what
+        the thermal and the lumped line's steps hold over a step."""
+        out = -self.external_leak_flow(q, room_pa, gas)[0] * np.ones_like(q)
+        if self.piston_leak_m2 is not None or self.piston_leak_g is not None:
+            m_ab = self.piston_leak_flow(q, room_pa, gas)[0]
+            out[:, 0::2] -= m_ab
+            out[:, 1::2] += m_ab
+        return out
 
     def external_leak_flow(self, p, room_pa: float, gas, cs=slice(None)):
         """(m, dm/dp) [kg/s, kg/(s Pa)] out of the chambers ``cs`` at pressures ``p`` through the
@@ -415,13 +433,8 @@ class ChamberModel:
     def _thermal_step(self, p, p_new, u, a_s, a_e, vol, vdot, ps):
         """The heat_transfer chambers by the energy equation (pneumatics.effects.heat_transfer)."""
         cs, mods, tab = self.thermal, self.mods, self.tab
-        extra = np.zeros_like(p)
-        extra -= mods.external_leak_flow(p, tab.room_pa, self.gas)[0]
+        extra = mods.chamber_leak_flow(p, tab.room_pa, self.gas)
         extra += mods.valve_clearance_flow(u, tab.valve[:, 0], p, ps, tab.room_pa)[0]
-        if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
-            m_ab = mods.piston_leak_flow(p, tab.room_pa, self.gas)[0]
-            extra[:, 0::2] -= m_ab
-            extra[:, 1::2] += m_ab
         p_th, t_th = thermal_step(p[:, cs], self.T[:, cs], vol[:, cs], vdot[:, cs], a_s[:, cs], a_e[:, cs],
                                   self.gas, ps, tab.room_pa, mods.heat_w_k[cs], self.gas.temperature_k,
                                   FINE_DT, extra[:, cs])

@@ -13,7 +13,6 @@ from __future__ import annotations
 import numpy as np
 
 from pneumatics.effects.line_dynamics import rc_line_step, tube_conductance, tube_quasi_steady, valve_into_tube
-from pneumatics.effects.valve_leak import CLEARANCE_WIDTH_V, clearance_conductances
 from pneumatics.tube_kernel import warm_tubes_compiled
 from pneumatics.valve import valve_areas
 
@@ -37,11 +36,8 @@ def tube_valve(tab, mods, u: np.ndarray, c: int):
     a_s, a_e = valve_areas(u[:, None], tab.valve[c:c + 1])
     leak_s, leak_e = mods.valve_leak_areas(u[:, None], tab.valve[c:c + 1, 0], slice(c, c + 1))
     a_s, a_e = (a_s * mods.supply_scale[c] + leak_s)[:, 0], (a_e * mods.exhaust_scale[c] + leak_e)[:, 0]
-    g_s = g_e = np.zeros(len(u))
-    if mods.valve_clearance_g is not None and mods.valve_clearance_g[c] > 0:
-        width = CLEARANCE_WIDTH_V if mods.valve_clearance_width_v is None else mods.valve_clearance_width_v[c]
-        g_s, g_e = clearance_conductances(u, tab.valve[c, 0], mods.valve_clearance_g[c], width)
-    return tuple(np.ascontiguousarray(x, float) for x in (a_s, a_e, g_s, g_e))
+    g_s, g_e = mods.valve_clearance_conductances(u, tab.valve[c, 0], c)
+    return tuple(np.ascontiguousarray(np.broadcast_to(x, u.shape), float) for x in (a_s, a_e, g_s, g_e))
 
 
 def start_tubes(model, exp, u_fine: np.ndarray, first: np.ndarray) -> None:
@@ -75,16 +71,8 @@ def tube_step_reference(model, p, p_new, u, a_s, a_e, vol, vdot, ps):
     mods, tab, gas = model.mods, model.tab, model.gas
     room = tab.room_pa
     ps = np.broadcast_to(ps, p.shape)
-    other = -mods.external_leak_flow(p, room, gas)[0] * np.ones_like(p)
-    if mods.piston_leak_m2 is not None or mods.piston_leak_g is not None:
-        m_ab = mods.piston_leak_flow(p, room, gas)[0]
-        other[:, 0::2] -= m_ab
-        other[:, 1::2] += m_ab
-    g_s, g_e = np.zeros_like(p), np.zeros_like(p)
-    if mods.valve_clearance_g is not None:
-        width = CLEARANCE_WIDTH_V if mods.valve_clearance_width_v is None else mods.valve_clearance_width_v
-        g_s, g_e = clearance_conductances(u, tab.valve[:, 0], mods.valve_clearance_g, width)
-        g_s, g_e = np.broadcast_to(g_s, p.shape), np.broadcast_to(g_e, p.shape)
+    other = mods.chamber_leak_flow(p, room, gas)
+    g_s, g_e = (np.broadcast_to(g, p.shape) for g in mods.valve_clearance_conductances(u, tab.valve[:, 0]))
     p_new = p_new.copy()
     for c in np.nonzero(mods.tube_volume_m3 > 0)[0]:
         g = float(tube_conductance(mods.tube_volume_m3[c], mods.tube_time_constant_s[c], model.n, model.rt))
