@@ -2,11 +2,13 @@
 (three R-L-C segments) of the independent variant simulator, whose 1-3 ms of wave time is no
 delay worth the name while its volume is as large as the chamber's dead volume; and on a
 chamber wall that yields, whose extra air grows with the pressure (outside the vocabulary)."""
+import dataclasses
+
 import numpy as np
 import pytest
 
 from identification.doctor.valve_arm.calibrate import SCALE_BOUND
-from identification.doctor.valve_arm.compliance import compliant_wall
+from identification.doctor.valve_arm.compliance import LINE_DELAY_UNRESOLVED_S, compliant_wall, delay_unresolved, wall_alternative
 from identification.doctor.valve_arm.diagnose import _calibrated_run, diagnose
 from identification.doctor.valve_arm.hypotheses import pneumatic_hypotheses
 from identification.doctor.valve_arm.rules import MIN_PREDICTED, Finding
@@ -78,10 +80,35 @@ def test_a_wall_that_yields_is_not_named_a_tube(tmp_path):
     run, _ = _calibrated_run(robot, [read_csv(truth["recordings"]["main"])], [read_csv(truth["recordings"]["heldout"])],
                              lambda m: None)
     hidden = truth["effects"][0]
-    entry = compliant_wall(run, _line_finding(run, robot, hidden["where"]))
+    entry, _ = compliant_wall(run, _line_finding(run, robot, hidden["where"]))
     assert entry is not None and entry["where"] == hidden["where"] and entry["suggests"] == []
     ratio = entry["wall_compliance_m3_pa"]["value"] / hidden["effective"]["compliance_m3_pa"]
     assert 0.5 < ratio < 2.0
+
+
+NARROW_WALL_SEED = 764588221  # a compliant wall at shoulder.b, a chamber held near 6 bar
+
+
+def test_a_wall_in_a_narrow_pressure_band_is_the_delay_free_lines_alternative(tmp_path):
+    """At a chamber whose pressure stays near 6 bar a wall's extra capacity is a constant
+    volume, as a tube's with no delay is: the line's fit shows no delay, the wall replays as
+    well and not clearly better, and the wall becomes the line's alternative with evidence
+    saying why; a line with a resolved delay keeps no such alternative."""
+    truth = make_case(tmp_path, NARROW_WALL_SEED, ["outside_vocabulary"], forms=["wall_compliance"], seconds=30.0,
+                      heldout_seconds=15.0, name="wall")
+    robot = load_robot("arm2")
+    run, _ = _calibrated_run(robot, [read_csv(truth["recordings"]["main"])], [read_csv(truth["recordings"]["heldout"])],
+                             lambda m: None)
+    hidden = truth["effects"][0]
+    line = _line_finding(run, robot, hidden["where"])
+    assert line.params["delay_s"]["value"] < LINE_DELAY_UNRESOLVED_S
+    entry, as_good = compliant_wall(run, line)
+    assert entry is None and as_good
+    named = wall_alternative(line)
+    assert named.family == "line_dynamics" and named.alternatives[0] == "outside_vocabulary"
+    assert "compliant wall" in named.evidence
+    delayed = dataclasses.replace(line, params={**line.params, "delay_s": {"value": 5e-3, "stderr": 1e-4}})
+    assert not delay_unresolved(delayed)
 
 
 def test_the_lumped_form_recovers_a_tube_of_the_simulators_own():

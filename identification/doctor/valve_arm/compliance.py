@@ -11,6 +11,12 @@ compliance and the calibration, no tube): when the wall replays the recording cl
 than the tube (WALL_MARGIN) and the held-out pressures no worse, or the held-out pressures
 clearly better (WALL_HELDOUT_MARGIN) and the training ones no worse, the extra air follows the
 pressure, not a tube, and the place is reported ``unexplained`` with the compliance it implies.
+
+A chamber that stays within a narrow band of pressure (arm2's b chambers held near 6 bar)
+cannot show the difference: a wall's extra capacity C ((1 + n) p - p_room) is then a constant
+volume, as a tube's without a measurable delay is.  When the line found there has no delay
+(LINE_DELAY_UNRESOLVED_S) and the wall replays as well, the line is named and the wall stays
+its alternative (:func:`wall_alternative`), the evidence saying why they cannot be told apart.
 """
 from __future__ import annotations
 
@@ -39,6 +45,9 @@ WALL_MARGIN = 0.02
 #: training (seed 646247227, named a delay-free line before); five lines with a fitted delay
 #: under 1.1 ms (lumped RLC, Richer-Hurmuzlu) at most 0.7 %, the rest worse than the tube
 WALL_HELDOUT_MARGIN = 0.05
+#: a line whose fitted delay [s] is below this shows only its volume: one 1 ms step of the
+#: replays (pneumatic.FINE_DT) at 100 Hz recordings
+LINE_DELAY_UNRESOLVED_S = 1e-3
 
 
 def _wall_hypothesis(where: dict, c: int) -> Hypothesis:
@@ -50,10 +59,11 @@ def _wall_hypothesis(where: dict, c: int) -> Hypothesis:
                       [("wall_compliance_m3_pa", 0.0, 0.0, WALL_MAX_M3_PA, WALL_PROBE_M3_PA)], [c], apply=apply)
 
 
-def compliant_wall(run: DoctorRun, finding: Finding) -> dict | None:
-    """The unexplained entry of ``finding``'s chamber when a compliant wall replays it clearly
+def compliant_wall(run: DoctorRun, finding: Finding) -> tuple[dict | None, bool]:
+    """(the unexplained entry of ``finding``'s chamber when a compliant wall replays it clearly
     better than the line does (WALL_MARGIN in training or WALL_HELDOUT_MARGIN held out), else
-    None."""
+    None; whether the wall is the line's alternative instead: it replays within those margins
+    of the line both ways and the line's delay is unresolved)."""
     line = finding.scored
     c = line.hyp.chambers[0]
     wall = Scored(_wall_hypothesis(finding.where, c), 0.0)
@@ -64,7 +74,9 @@ def compliant_wall(run: DoctorRun, finding: Finding) -> dict | None:
     clear_in_training = train_wall ** 2 <= (1.0 - WALL_MARGIN) * train_line ** 2 and after <= held_line
     clear_held_out = after ** 2 <= (1.0 - WALL_HELDOUT_MARGIN) * held_line ** 2 and train_wall <= train_line
     if not (clear_in_training or clear_held_out):
-        return None
+        as_good = (train_wall ** 2 <= (1.0 + WALL_MARGIN) * train_line ** 2
+                   and after ** 2 <= (1.0 + WALL_HELDOUT_MARGIN) * held_line ** 2)
+        return None, as_good and delay_unresolved(finding)
     value, se = float(wall.fit.values[-1]), float(wall.fit.stderr[-1])
     before = line.heldout_before[c]
     pred, meas = replay(run.held, run.win_h, run.mods)
@@ -72,7 +84,7 @@ def compliant_wall(run: DoctorRun, finding: Finding) -> dict | None:
     idx = (run.win_h.starts[:, None] + 1 + np.arange(HORIZON)[None]).ravel()
     regime, _, _ = locate_regime(r, {k: v[idx] for k, v in chamber_regimes(run.held, c).items()})
     gauge = run.robot.tables.supply_pa - run.robot.tables.room_pa
-    return {
+    return ({
         "where": dict(finding.where), "regime": regime, "residual": "pressure",
         "share_of_residual": float(1.0 - (after / before) ** 2) if before > 0 else 0.0,
         "depends_on": ["pressure level", "volume"], "suggests": [], "windows": windows(run.held.t[idx], r),
@@ -81,4 +93,22 @@ def compliant_wall(run: DoctorRun, finding: Finding) -> dict | None:
                      f"(dV/dp {value:.2g} m^3/Pa, {1e6 * value * gauge:.2f} cm^3 at the supply's gauge pressure) "
                      f"predicts its held-out pressures to {after:.0f} Pa RMS, a tube's fixed volume "
                      f"(line_dynamics) to {line.heldout_after[c]:.0f} Pa (from {before:.0f} Pa); the library "
-                     "has no family for a wall that yields")}
+                     "has no family for a wall that yields")}, False)
+
+
+def delay_unresolved(finding: Finding) -> bool:
+    """Whether ``finding`` (a line) shows no delay, only a volume: its delay_volume form's delay,
+    or its lumped_rc form's time constant, under LINE_DELAY_UNRESOLVED_S."""
+    p = finding.params
+    delay = p.get("delay_s", p.get("time_constant_s", {})).get("value", np.inf)
+    return delay < LINE_DELAY_UNRESOLVED_S
+
+
+def wall_alternative(finding: Finding) -> Finding:
+    """``finding`` (a line with no delay, a compliant wall replaying its chamber as well) with
+    the wall as its alternative and the evidence saying why."""
+    finding.alternatives = ["outside_vocabulary"] + [a for a in finding.alternatives if a != "outside_vocabulary"]
+    finding.evidence = ("no delay is seen, only more volume than the model: a tube's, or a compliant wall's "
+                        "(outside the vocabulary) at a chamber whose pressure stays in a narrow band; a recording "
+                        "that takes this chamber through a wider range of pressures tells them apart")
+    return finding

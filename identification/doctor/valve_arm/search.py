@@ -15,7 +15,7 @@ from .flex_check import block_samples, partial_projection, suggested_candidates
 from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
 from .angle_replay import angle_rule_verdict, yardstick_angle
 from .calibrate import SCALE_BOUND
-from .compliance import compliant_wall
+from .compliance import compliant_wall, wall_alternative
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
 from .naming import friction_named, line_named
 from .rules import (
@@ -106,7 +106,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             run.tried.add(finding.scored.hyp.label)
             continue
         if finding.family == "line_dynamics":
-            wall = compliant_wall(run, finding)
+            wall, wall_as_good = compliant_wall(run, finding)
             if wall is not None:
                 # more air the higher the pressure: a wall that yields, not a tube's volume
                 say(f"{finding.scored.hyp.label}: a compliant wall replays the chamber better than a tube")
@@ -114,6 +114,8 @@ def search_pneumatic(run: DoctorRun, say) -> None:
                 close_place(run, finding, scored)
                 continue
             finding = line_named(run, finding)
+            if wall_as_good and finding.family == "line_dynamics":
+                finding = wall_alternative(finding)
         run.findings.append(finding)
         run.tried.add(finding.scored.hyp.label)
         close_other_forms(run, scored, {finding.family, finding.scored.hyp.family}, finding.where)
