@@ -109,6 +109,7 @@ def wall_alternative(finding: Finding) -> Finding:
     the wall as its alternative and the evidence saying why."""
     finding.alternatives = ["outside_vocabulary"] + [a for a in finding.alternatives if a != "outside_vocabulary"]
     finding.evidence = ("no delay is seen, only more volume than the model: a tube's, or a compliant wall's "
-                        "(outside the vocabulary) at a chamber whose pressure stays in a narrow band; a recording "
-                        "that takes this chamber through a wider range of pressures tells them apart")
+                        "(outside the vocabulary), which replays this chamber as well (a wall's extra volume "
+                        "grows with the pressure, nearly constant where the pressure stays in a narrow band); "
+                        "a recording that takes this chamber through a wider range of pressures tells them apart")
     return finding
