@@ -70,16 +70,21 @@ def _line_finding(run, robot, where):
     return Finding(s, "line_dynamics", where, finding_params(s), s.heldout_gain)
 
 
-def test_a_wall_that_yields_is_not_named_a_tube(tmp_path):
-    """A chamber whose volume grows with pressure (V = V0 + C (p - p_room)) looks like a tube's
-    volume to the line's fit; the wall replays it clearly better and the place is reported
-    unexplained with the compliance (within a factor 2 of the truth), not as a line."""
-    truth = make_case(tmp_path, WALL_SEED, ["outside_vocabulary"], forms=["wall_compliance"], seconds=30.0,
+def _wall_case(tmp_path, seed):
+    """(calibrated run, arm2, the hidden effect) of a 30 s + 15 s compliant-wall case."""
+    truth = make_case(tmp_path, seed, ["outside_vocabulary"], forms=["wall_compliance"], seconds=30.0,
                       heldout_seconds=15.0, name="wall")
     robot = load_robot("arm2")
     run, _ = _calibrated_run(robot, [read_csv(truth["recordings"]["main"])], [read_csv(truth["recordings"]["heldout"])],
                              lambda m: None)
-    hidden = truth["effects"][0]
+    return run, robot, truth["effects"][0]
+
+
+def test_a_wall_that_yields_is_not_named_a_tube(tmp_path):
+    """A chamber whose volume grows with pressure (V = V0 + C (p - p_room)) looks like a tube's
+    volume to the line's fit; the wall replays it clearly better and the place is reported
+    unexplained with the compliance (within a factor 2 of the truth), not as a line."""
+    run, robot, hidden = _wall_case(tmp_path, WALL_SEED)
     entry, _ = compliant_wall(run, _line_finding(run, robot, hidden["where"]))
     assert entry is not None and entry["where"] == hidden["where"] and entry["suggests"] == []
     ratio = entry["wall_compliance_m3_pa"]["value"] / hidden["effective"]["compliance_m3_pa"]
@@ -94,12 +99,7 @@ def test_a_wall_in_a_narrow_pressure_band_is_the_delay_free_lines_alternative(tm
     volume, as a tube's with no delay is: the line's fit shows no delay, the wall replays as
     well and not clearly better, and the wall becomes the line's alternative with evidence
     saying why; a line with a resolved delay keeps no such alternative."""
-    truth = make_case(tmp_path, NARROW_WALL_SEED, ["outside_vocabulary"], forms=["wall_compliance"], seconds=30.0,
-                      heldout_seconds=15.0, name="wall")
-    robot = load_robot("arm2")
-    run, _ = _calibrated_run(robot, [read_csv(truth["recordings"]["main"])], [read_csv(truth["recordings"]["heldout"])],
-                             lambda m: None)
-    hidden = truth["effects"][0]
+    run, robot, hidden = _wall_case(tmp_path, NARROW_WALL_SEED)
     line = _line_finding(run, robot, hidden["where"])
     assert line.params["delay_s"]["value"] < LINE_DELAY_UNRESOLVED_S
     entry, as_good = compliant_wall(run, line)
