@@ -80,6 +80,9 @@ def test_no_sliding_samples_give_no_ratio():
     assert np.isnan(test.ratio) and not test.stiction
 
 
+# a whole doctor's run (35 s on a slow 2-core machine), slow for CI's 15 minutes;
+# the breakaway test's parts are above
+@pytest.mark.slow
 def test_the_doctor_names_karnopp_sticking_stiction_and_hands_back_the_model_it_proved(tmp_path):
     """A shoulder with Karnopp stick-slip friction (F_s 0.12-0.25 N m, F_c 0.3-0.5 F_s) in a
     recording of the random-form generator: the search fits a Coulomb level, the stick phases

@@ -25,6 +25,9 @@ def doctor(case):
     return robot, rep
 
 
+# a whole doctor's run, slow for CI's 15 minutes;
+# the --fast variant benchmark names a LuGre friction in the default run
+@pytest.mark.slow
 def test_lugre_friction_on_the_shoulder_is_named_coulomb_friction(tmp_path):
     robot, rep = doctor("case_befd9d0f")
     assert rep["verdict"] == "missing_physics"

@@ -1,7 +1,9 @@
 """Where the doctor places a pressure-sensor offset that the torque balance sees as a cylinder
 force error (identification/doctor/valve_arm/sensor_offsets.py: offset_place, offset_chamber,
 fixed_offset_evidence), on recordings of the random-form generator diagnosed from their CSV files
-alone."""
+alone.  Each case is a doctor's run on 60 s + 30 s (35 s on a slow 2-core machine): slow tests,
+to keep CI within its 15 minutes; the calibration's departure they turn on is tested here in the
+default run."""
 import pytest
 
 from identification.doctor.valve_arm.diagnose import diagnose
@@ -35,6 +37,7 @@ def test_a_pressure_offset_the_replays_can_place_is_named_at_its_chamber(tmp_pat
     assert first["heldout_nrmse"]["after"] < first["heldout_nrmse"]["before"]
 
 
+@pytest.mark.slow
 def test_a_pressure_offset_the_free_fits_cannot_place_is_placed_by_the_torque_balances_offset(tmp_path):
     """A +4.9 kPa zero offset of shoulder a's transducer (random-form generator, seed 488402070
     of fresh generalization run 9, where it was named at the actuator): freely fitted in each
@@ -47,6 +50,7 @@ def test_a_pressure_offset_the_free_fits_cannot_place_is_placed_by_the_torque_ba
         truth["effects"][0]["effective"]["offset_pa"], rel=0.15)
 
 
+@pytest.mark.slow
 def test_where_the_held_out_gains_mislead_the_calibrations_return_to_the_datasheet_places_the_offset(tmp_path):
     """A -8.7 kPa zero offset of elbow b's transducer (random-form generator, development seed
     300000015): neither chamber's free replay fit pays, and with the torque balance's offset put

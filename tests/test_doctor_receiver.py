@@ -72,6 +72,9 @@ def compressor_case(tmp_path_factory):
     return _write(out, "compressor", _record(robot, effects, 5, 30.0, 15.0))
 
 
+# a whole doctor's run (45 s on a slow 2-core machine), slow for CI's 15 minutes;
+# the receiver fit's tests are beside it
+@pytest.mark.slow
 def test_the_doctor_names_a_cycling_compressor(compressor_case):
     from identification.doctor.valve_arm.diagnose import diagnose
     from pneumatics.recording import read_csv

@@ -3,6 +3,8 @@ worsening, withdraw_worsening): a torque-balance finding whose coupled held-out 
 own channel worse is withdrawn, and the report says why."""
 from types import SimpleNamespace
 
+import pytest
+
 from identification.doctor.valve_arm.final_fit import WORSE_RATIO, worsening
 
 
@@ -26,6 +28,9 @@ def test_only_torque_balance_findings_that_worsen_their_channel_are_picked_worst
     assert worsening(run) == [stop, offset]
 
 
+# a whole doctor's run, slow for CI's 15 minutes;
+# the withdrawal rule itself is tested above
+@pytest.mark.slow
 def test_a_null_recording_keeps_no_end_stop_that_makes_the_replay_worse(tmp_path):
     """pneumasim's own null case, seed 1042 of the arm2 blind benchmark (±3 % parameter errors,
     noise): the torque balance kept an end stop at the elbow whose coupled held-out replay made

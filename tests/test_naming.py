@@ -49,6 +49,9 @@ def test_the_dead_time_form_delays_the_spool_as_a_line_without_volume(arm2):
     assert other_order.line_arrays(arm2)[0][2] == pytest.approx(0.015)
 
 
+# a whole doctor's run (37 s on a slow 2-core machine), slow for CI's 15 minutes;
+# the dead time's naming rule is tested above
+@pytest.mark.slow
 def test_the_doctor_names_a_valve_dead_time_and_hands_back_the_model_it_proved(tmp_path):
     """A 5-25 ms dead time of one valve in a recording of the random-form generator (no tube):
     the search's line hypothesis fits the delay with almost no volume, the finding is the
