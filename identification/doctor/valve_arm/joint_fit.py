@@ -92,23 +92,33 @@ def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, 
     # the same row scaling as fit_rigid_body (mechanics._scaled): each joint's residual s.d.
     y_all = td.residual[v]
     scale = np.maximum(np.std(y_all[:, joints], axis=0), 1e-9)
-    # the joints' rows sliced before the valid samples: the whole (N, J, P) array is not copied
-    A = (np.concatenate([td.regressors[:, joints][v], extra[:, joints][v]], axis=2)
-         / scale[None, :, None]).reshape(-1, P + E)                                 # (M S, P + E)
+    # only the regressor columns non-zero at these joints (a humanoid's arm joint: its own
+    # bodies' of the 38 joints'): the others add nothing to these rows, whose slices are taken
+    # at the valid samples alone
+    cols = np.flatnonzero(td.regressor_reach()[joints].any(axis=0))
+    rows = np.flatnonzero(v)
+    sub = np.concatenate([cols, P + np.arange(E)])                                   # into names
+    A = np.concatenate([td.regressors[np.ix_(rows, joints, cols)], extra[np.ix_(rows, joints, np.arange(E))]],
+                       axis=2) / scale[None, :, None]
+    A = A.reshape(-1, sub.size)                                                      # (M S, |cols| + E)
     y = (y_all[:, joints] / scale).ravel()
     held = np.concatenate([cal.values, np.zeros(E)])
     free = np.concatenate([td.refitted_beside_effects(), np.ones(E, bool)])
     # the free columns acting at these joints (a kept term's rounding there does not count: it
     # stays at its base value), and the effect's own even where they are zero: least squares
     # leaves a column without data at a start of its own choosing, as the whole fit does
-    acts = np.concatenate([np.any(A[:, :P] != 0, axis=0), column_reach(extra, v)[joints].any(axis=0)])
+    acts = np.zeros(len(names), bool)
+    acts[cols] = True
+    acts[P:] = column_reach(extra, v)[joints].any(axis=0)
     block = free & (acts | (np.arange(len(names)) >= len(base.values)))
     x = np.empty(len(names))
     x[: len(base.values)] = base.values                      # every other joint's part, as fitted
     x[len(base.values):] = 0.0
-    y_f = y - A[:, ~block] @ np.where(free, x, held)[~block]
-    x[block] = lsq_linear(A[:, block], y_f, bounds=(lo[block], hi[block])).x if block.any() else x[block]
-    res = (y_f - A[:, block] @ x[block]).reshape(-1, S)
+    in_block = block[sub]                                    # block lies within sub (acting or the effect's)
+    A_b = A[:, in_block]
+    y_f = y - A[:, ~in_block] @ np.where(free, x, held)[sub][~in_block]
+    x[block] = lsq_linear(A_b, y_f, bounds=(lo[block], hi[block])).x if block.any() else x[block]
+    res = (y_f - A_b @ x[block]).reshape(-1, S)
     residual = base.residual.reshape(-1, J).copy()
     old = residual[:, joints]
     residual[:, joints] = res
@@ -117,7 +127,7 @@ def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, 
     se[: len(base.stderr)] = base.stderr
     n_free = int(free.sum())
     if block.any() and stderr:  # Gauss-Markov with the whole fit's s^2 = rss / (n - p); J^T J is block diagonal
-        local, cond = covariance(A[:, block], rss * (y.size - block.sum()) / max(y_all.size - n_free, 1), y.size)
+        local, cond = covariance(A_b, rss * (y.size - block.sum()) / max(y_all.size - n_free, 1), y.size)
         se[block] = local
     else:
         cond = base.condition

@@ -26,7 +26,7 @@ Swevers et al. 2007, "Dynamic model identification for industrial robots", IEEE 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -76,6 +76,8 @@ class TorqueData:
     joint_ok: np.ndarray = None  # (N, J) False where a joint's equation is left out (a coupled joint near its limit)
     dtau_drate: np.ndarray = None  # (N, J, J) d tau_inv / d g_k: joint k's rates read (1 + g_k) times (angle sensor gain)
     held_nominal: str = ""      # why the rigid body is held at its nominal values ("": calibrated; hold_nominal)
+    #: (J, P) regressor_reach's answer, made at its first call (a replace()d copy makes its own)
+    _reach: np.ndarray = field(default=None, init=False, repr=False, compare=False)
 
     def mask(self, x: np.ndarray) -> np.ndarray:
         """x (N, J, ...) with the equations ``joint_ok`` leaves out set to zero (a zero row of
@@ -83,6 +85,13 @@ class TorqueData:
         if self.joint_ok is None or self.joint_ok.all():
             return x
         return np.where(self.joint_ok.reshape(self.joint_ok.shape + (1,) * (x.ndim - 2)), x, 0.0)
+
+    def regressor_reach(self) -> np.ndarray:
+        """(J, P): which regressor columns are non-zero at each joint's ``valid`` samples (a
+        body's inertias reach the joints it hangs from, a joint's damping its own)."""
+        if self._reach is None:
+            self._reach = np.any(self.regressors[self.valid] != 0, axis=0)
+        return self._reach
 
     @property
     def residual(self) -> np.ndarray:

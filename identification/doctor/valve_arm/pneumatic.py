@@ -281,12 +281,13 @@ class ChamberModel:
                 np.zeros(self.W), glob, per(mods.heat_w_k, np.nan), per(mods.wall_compliance_m3_pa),
                 per(mods.tube_volume_m3), per(mods.tube_time_constant_s, 0.01))
 
-    def travel(self, length):
-        """Chamber travel (W, C) from actuator lengths (W, n_act)."""
+    def travel(self, length, chambers=slice(None)):
+        """Chamber travel (W, C) from actuator lengths (W, n_act); only the columns ``chambers``
+        (indices) if given (a replay of a few of a humanoid's 76 chambers)."""
         tab = self.tab
-        act = tab.actuator_of_chamber
+        act = tab.actuator_of_chamber[chambers]
         x = np.clip(length[:, act] - tab.length_zero[act], 0.0, tab.stroke[act])
-        return np.where(tab.is_a, x, tab.stroke[act] - x)
+        return np.where(tab.is_a[chambers], x, tab.stroke[act] - x)
 
     def step(self, p, u, travel0, travel1):
         """p (W, C) -> p after one FINE_DT step with commands u (W, C) and travels at its ends.
@@ -538,7 +539,7 @@ def replay(exp: Experiment, win: Windows, mods: PneumaticMods, chambers: np.ndar
     model = ChamberModel(exp.robot, mods, W, None if chambers is None else cols)
     u_all = effective_commands(exp, mods)
     u_f = u_all[:, cols]
-    travel = model.travel(drive_side_lengths(exp, mods))[:, cols]  # (F, C)
+    travel = model.travel(drive_side_lengths(exp, mods), cols)  # (F, C)
     k0 = win.starts
     p = initial_pressure(exp, k0, mods)[:, cols]
     if model.thermal.size:
