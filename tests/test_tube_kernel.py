@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from pneumatics.effects.line_dynamics import rc_line_step, tube_conductance, tube_quasi_steady, valve_into_tube
@@ -29,13 +29,18 @@ def valve(a_s, a_e, g_s=0.0, g_e=0.0):
 @settings(max_examples=60, deadline=None)
 @given(st.floats(ROOM, SUPPLY), st.floats(ROOM, SUPPLY), st.floats(0.0, 2e-6), st.floats(0.0, 2e-6),
        st.floats(1e-7, 5e-6), st.floats(1e-3, 0.1), st.floats(-1e-4, 1e-4), st.floats(0.0, 4e-11))
+@example(369798.0, 1e5, 4.86707161516999e-07, 0.0, 1.5e-07, 0.0625, 0.0, 0.0)  # the choked step below
 def test_the_compiled_step_is_the_numpy_step(p_t, p, a_s, a_e, tube_v, tau, vdot, g):
     """Random tubes, valves (areas, clearances), pressures and piston motions: one step agrees
-    to 1e-12 relative."""
+    to 1e-10 relative.  Not to 1e-12: where the valve is choked its flow's derivative d mdot /
+    d p_t is zero up to round-off (numpy's -5e-15 kg/(s Pa) for a 0.49 mm^2 valve filling a tube
+    at 3.7 bar), the two paths round it differently, and the Rosenbrock step's Jacobian
+    multiplies it by n R T h / V_tube (8e8 Pa s/kg for 0.15 cm^3): hypothesis found such a step
+    that differed by 2e-11."""
     vol = 2e-5
     ref = rc_line_step(p_t, p, vol, vdot, tube_v, tau, valve(a_s, a_e, g, 0.5 * g), -1e-6, N, RT, 1e-3)
     fast = rc_line_step_compiled(p_t, p, vol, vdot, tube_v, tau, a_s, a_e, g, 0.5 * g, SUPPLY, -1e-6, GLOB, 1e-3)
-    np.testing.assert_allclose(fast, ref, rtol=1e-12)
+    np.testing.assert_allclose(fast, ref, rtol=1e-10)
 
 
 def test_a_shut_valve_keeps_the_air_of_tube_and_chamber():
