@@ -147,15 +147,23 @@ def refusal(robot, *recordings) -> str | None:
     return None
 
 
-def make_case(seed: int, families: list[str], seconds: float, heldout_seconds: float, subset: str | None = None):
+def make_case(seed: int, families: list[str], seconds: float, heldout_seconds: float, subset: str | None = None,
+              given: list[dict] | None = None):
     """(main recording, held-out recording, truth dict) of one case of humanoid38 (or of its part
-    ``subset``); the held-out recording tracks a different reference with a different noise seed."""
+    ``subset``); the held-out recording tracks a different reference with a different noise seed.
+    ``given``: effects placed as stated instead of drawn ([{"family", "place", "parameters"
+    (the form's fields), "form" (optional)}], e.g. an issue's example), at their own magnitude."""
     from .humanoid38_tracking import track
 
     rng = np.random.default_rng(seed)
     nominal = nominal_humanoid(subset)
-    drawn = [draw_on_humanoid(f, rng, nominal) for f in families]
-    scale = float(rng.uniform(*CONCEAL_SCALE)) if families else 1.0
+    if given:
+        drawn = [_given_effect(g, nominal) for g in given]
+        families = [fam.name for fam, _, _ in drawn]
+        scale = 1.0
+    else:
+        drawn = [draw_on_humanoid(f, rng, nominal) for f in families]
+        scale = float(rng.uniform(*CONCEAL_SCALE)) if families else 1.0
     robot, factors = perturbed_humanoid(rng, subset=subset)
     cfg, lin, refs = controller(subset)
     k = int(rng.integers(0, len(refs)))
@@ -166,7 +174,7 @@ def make_case(seed: int, families: list[str], seconds: float, heldout_seconds: f
         refused = refusal(nominal, main, held)
         if refused is None:
             break
-        if not families or halvings == MAX_HALVINGS:
+        if not families or given or halvings == MAX_HALVINGS:
             raise RecordingError(f"{nominal.name} case {seed}: the doctor would refuse its recording "
                                  f"({refused}){' with the effects halved ' + str(halvings) + ' times' if families else ''}")
         scale *= 0.5
@@ -174,3 +182,14 @@ def make_case(seed: int, families: list[str], seconds: float, heldout_seconds: f
              "scale": scale, "parameter_factors": factors, "perturbation_fraction": PARAM_ERROR,
              "references": [k, (k + 1) % len(refs)]}
     return main, held, truth
+
+
+def _given_effect(g: dict, robot):
+    """(family, place, parameters) of a stated effect (make_case's ``given``), its place checked."""
+    from pneumatics.effects.registry import get_family
+
+    fam = get_family(g["family"])
+    possible = fam.places(robot)
+    if g["place"] not in possible:
+        raise UnknownNameError(f"{fam.name} place on {robot.name}", g["place"], possible)
+    return fam, g["place"], fam.params(g["parameters"], g.get("form"))

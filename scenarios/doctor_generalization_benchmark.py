@@ -64,7 +64,7 @@ FAST_PLAN = ([], ["pressure_sensor_offset"], ["supply_droop", "valve_hysteresis"
 FAST_SEED_BASE = 16000
 #: the --fast cases' recordings [s]: a check that every part of the run works and writes its
 #: metrics (its answers are not asserted), kept short for CI's 15 minutes
-FAST_SECONDS, FAST_HELDOUT_SECONDS = 20.0, 10.0
+FAST_SECONDS, FAST_HELDOUT_SECONDS = 10.0, 5.0
 SEED_ENV = "PNEUMASIM_GENERALIZATION_SEED"
 
 

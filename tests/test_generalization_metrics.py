@@ -166,7 +166,7 @@ def _generator_draws_outside() -> bool:
 @pytest.mark.heavy
 def test_generalization_benchmark_fast(tmp_path, monkeypatch):
     """The --fast benchmark (null, pressure sensor offset, supply droop + valve hysteresis, an
-    outside-vocabulary effect; 20 s + 10 s each) in this process: every required metric, the
+    outside-vocabulary effect; 10 s + 5 s each) in this process: every required metric, the
     fixed seeds, ratios in [0, 1]."""
     from scenarios.common import run_scenario
     from scenarios.doctor_generalization_benchmark import FAST_PLAN, FAST_SEED_BASE, SEED_ENV
@@ -230,7 +230,7 @@ def test_the_full_plan_is_80_cases_of_the_issue():
     pairs = [set(c["families"]) for c in cases if case_kind(c["families"]) == "pair"]
     assert {"supply_droop", "valve_leak"} in pairs and all(len(p) == 2 for p in pairs)
     fast, s, h = plan(True, 0)
-    assert len(fast) == 4 and (s, h) == (20.0, 10.0)
+    assert len(fast) == 4 and (s, h) == (10.0, 5.0)
 
 
 def test_outside_forms_spread_over_chamber_joint_and_supply(monkeypatch):
