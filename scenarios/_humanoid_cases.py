@@ -176,7 +176,7 @@ def make_case(seed: int, families: list[str], seconds: float, heldout_seconds: f
             break
         if not families or given or halvings == MAX_HALVINGS:
             raise RecordingError(f"{nominal.name} case {seed}: the doctor would refuse its recording "
-                                 f"({refused}){' with the effects halved ' + str(halvings) + ' times' if families else ''}")
+                                 f"({refused}){' with the effects halved ' + str(halvings) + ' times' if halvings else ''}")
         scale *= 0.5
     truth = {"seed": seed, "model": nominal.name, "families": list(families) or ["none"], "effects": [truth_of(d, scale) for d in drawn],
              "scale": scale, "parameter_factors": factors, "perturbation_fraction": PARAM_ERROR,

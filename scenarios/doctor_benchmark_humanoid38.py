@@ -151,18 +151,8 @@ def subset_timing_case(case: dict) -> dict:
     """The doctor's seconds on a null case of a part of humanoid38 (``case["subset"]``, a key of
     _humanoid_cases.SUBSETS: the other joints locked), of the same lengths: the plot's points
     between arm2 and the whole robot."""
-    from identification.doctor.valve_arm.diagnose import diagnose
-
-    from ._humanoid_cases import make_case, nominal_humanoid
-
-    main_rec, held, _ = make_case(case["seed"], [], case["seconds"], case["heldout_seconds"], subset=case["subset"])
-    robot = nominal_humanoid(case["subset"])
-    t0 = time.perf_counter()
-    report = diagnose(robot, [main_rec], [held])
-    seconds = time.perf_counter() - t0
-    return {"subset": case["subset"], "chambers": robot.tables.n_chambers, "seconds": seconds,
-            "peak_memory_mib": _peak_mib(), "findings": [_finding(f) for f in report["findings"]],
-            "unexplained": report["unexplained"]}
+    row = humanoid_case({**case, "families": []})
+    return {k: row[k] for k in ("subset", "chambers", "seconds", "peak_memory_mib", "findings", "unexplained")}
 
 
 def sweep_case(case: dict) -> dict:
