@@ -233,7 +233,7 @@ def run(ctx):
     atomic_write_json(ctx.out / "cases.json", rows)
     if source == "given":  # an evaluation run's cases are not looked at one by one
         _print_cases(rows)
-    _confusion(rows, ctx)
+    _confusion(rows, ctx, source)
     metrics = generalization_metrics(rows, list(FAMILIES), lambda a, b: same_family(a, b, False))
     return {**metrics, "seed_base": base, "seeds": f"{base}..{base + len(rows) - 1}", "seed_source": source,
             "generator": ",".join(sorted({str(r["generator"]) for r in rows if not r.get("generator_error")}))}
@@ -252,16 +252,18 @@ def _print_cases(rows: list[dict]) -> None:
               f"{judged} ({r['seconds']:.0f} s)")
 
 
-def _confusion(rows: list[dict], ctx) -> None:
+def _confusion(rows: list[dict], ctx, source: str) -> None:
     """Strict: a name counts only for the family it is; no finding but an unexplained entry
-    goes on the "unexplained" column."""
+    goes on the "unexplained" column.  The title says whether the seeds were fresh (``source``,
+    choose_seed_base's) or given (development seeds, --fast's among them)."""
     hidden = list(FAMILIES) + [OUTSIDE, "none"]
     cols = list(FAMILIES) + ["none", "unexplained", "other"]
     named = [{"families": r["families"],
               "named": [f["effect"] for f in r["findings"]] or (["unexplained"] if r["unexplained"] else [])}
              for r in rows if not r.get("generator_error")]
     mat = confusion_matrix(named, hidden, cols)
-    plot_confusion(ctx, mat, hidden, cols, "doctor on fresh random-form cases: strict confusion matrix\n"
+    seeds = "fresh" if source == "fresh" else "development (given seeds)"
+    plot_confusion(ctx, mat, hidden, cols, f"doctor on random-form cases, {seeds}: strict confusion matrix\n"
                    "(an extra finding beside a right one counts in its row too)")
 
 
