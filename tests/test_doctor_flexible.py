@@ -292,6 +292,52 @@ def test_the_chambers_floor_is_set_per_robot_from_their_spread():
     assert [c.chambers for c in paying(arm2)] == [[2]] and FLEX_FLOOR <= 0.35
 
 
+def test_a_chamber_paying_no_more_than_on_its_twin_is_not_flagged():
+    """Five humanoid38 cylinders whose pressures the 100 Hz samples do not resolve pay about
+    0.6 on every recording, effect or none (docs/humanoid_doctor.md): above the robot's
+    ceiling, so flagged, unless their twin's gains (module twin) say the model pays as much
+    where nothing is missing.  An effect at a chamber the samples resolve stands far above its
+    twin; a chamber whose partner is held to a higher floor by its twin stands alone."""
+    from identification.doctor.valve_arm.flexible import TWIN_MARGIN, paying
+
+    rng = np.random.default_rng(2)
+    gains = np.clip(rng.normal(0.2, 0.05, 76), 0.0, 1.0)
+    unresolved = [20, 21, 30, 31, 40, 41, 50, 51, 60, 61]
+    gains[unresolved] = 0.6
+    gains[9] = 0.95
+    corrs = [_correction(g, c) for c, g in enumerate(gains)]
+    assert sorted(c.chambers[0] for c in paying(corrs)) == sorted([9, *unresolved])
+    twin = {(f"a{c // 2}", "ab"[c % 2]): (0.58 if c in unresolved else 0.2) for c in range(76)}
+    assert [c.chambers for c in paying(corrs, twin)] == [[9]]
+    # the twin lifts a chamber's floor by TWIN_MARGIN exactly: at it, the cylinder pays
+    twin[("a10", "a")] = twin[("a10", "b")] = 0.6 - TWIN_MARGIN
+    assert [c.chambers for c in paying(corrs, twin)] == [[9], [20], [21]]
+    # one chamber of it alone does not stand out of its cylinder (PARTNER_STANDOUT)
+    twin[("a10", "b")] = 0.58
+    assert [c.chambers for c in paying(corrs, twin)] == [[9]]
+
+
+@needs_samples
+def test_the_twin_of_the_null_sample_follows_it_and_pays_nowhere(null_calibrated):
+    """The calibrated chamber model replayed as the twin (restarted from the measured pressures
+    every TWIN_RESTART_S) stays within the sensor noise's order of the null sample's pressures,
+    and the flexible corrections find nothing on it: the floor a twin sets on a recording
+    whose model lacks nothing is the robot's own (FLEX_FLOOR)."""
+    from identification.doctor.valve_arm.data import with_pressures
+    from identification.doctor.valve_arm.flexible import TWIN_MARGIN
+    from identification.doctor.valve_arm.twin import TWIN_RESTART_S, model_pressures, twin_gains
+
+    robot, exp, held, mods = null_calibrated
+    sigma = pressure_sigma(exp)
+    p = model_pressures(exp, mods)
+    assert np.array_equal(p[0], exp.p[0]) and TWIN_RESTART_S * exp.rate_hz < len(exp.t) / 10
+    assert np.all(np.sqrt(np.mean((p - exp.p) ** 2, axis=0)) < 3 * sigma)
+    np.testing.assert_array_equal(with_pressures(exp, exp.p).p_at_t, exp.p_at_t)
+    gains = twin_gains(exp, held, mods, sigma, 10)
+    assert set(gains) == set(robot.chamber_names)
+    assert max(gains.values()) < FLEX_FLOOR - TWIN_MARGIN
+
+
 def test_robust_ceiling_is_median_plus_three_robust_deviations():
     from identification.base.statistics import SPREAD_MIN_PLACES, robust_ceiling
 

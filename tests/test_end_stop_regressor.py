@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from identification.base.smoothing import discrepancy_lambda, smooth_derivatives, smoothing_spline
-from identification.doctor.valve_arm.data import Experiment, _light_spline
+from identification.doctor.valve_arm.data import Experiment, light_spline
 from pneumatics.effects import get_family
 
 STOP_RAD = 0.733
@@ -26,7 +26,7 @@ def _recording(rng, noise_rad=8.7e-4, rate_hz=100.0, seconds=20.0):
 def _experiment(t, q):
     lam = discrepancy_lambda(t, q)
     q_s, qd, qdd = smooth_derivatives(t, q, order=2, lam=lam)
-    light = _light_spline(t, q)
+    light = light_spline(t, q)
     col = lambda x: x[:, None]
     return Experiment(None, None, t, t, col(q), col(q_s), col(qd), col(qdd), np.zeros((t.size, 2)), np.zeros((t.size, 2)),
                       False, q_light=col(light(t)), qd_light=col(light.derivative(1)(t)), q_lam=np.array([[lam]]))

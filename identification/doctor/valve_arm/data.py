@@ -7,6 +7,7 @@ period ending at time[k], i.e. centred half a period earlier; a command row k is
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import mujoco
@@ -139,19 +140,31 @@ def prepare(robot: Robot, rec: Recording, *, averaged: bool | None = None, check
     q_s = np.column_stack([x[0] for x in d])
     qd = np.column_stack([x[1] for x in d])
     qdd = np.column_stack([x[2] for x in d])
-    light = [_light_spline(ts, q[:, j]) for j in range(len(joints))]
+    light = [light_spline(ts, q[:, j]) for j in range(len(joints))]
     exp = Experiment(robot, rec, t, ts, q, q_s, qd, qdd, p, u, averaged,
                      q_light=np.column_stack([s(ts) for s in light]),
                      qd_light=np.column_stack([s.derivative(1)(ts) for s in light]), q_lam=np.array([lams]))
     exp.q_cutoff_hz = min(spline_cutoff_hz(lam, 1.0 / rate) for lam in lams)
     # pressures at the sample instants (window starts of the replays): a light smoothing
     # spline through the DAQ means, evaluated half a period later than they stand
-    exp.p_at_t = np.column_stack([_light_spline(ts, p[:, c])(t) for c in range(p.shape[1])])
+    exp.p_at_t = np.column_stack([light_spline(ts, p[:, c])(t) for c in range(p.shape[1])])
     _fine_geometry(exp, light)
     return exp
 
 
-def _light_spline(t, y, fraction: float = 0.5):
+def with_pressures(exp: Experiment, p: np.ndarray) -> Experiment:
+    """A copy of ``exp`` whose measured pressures are ``p`` (N, C) [Pa], with the pressures at
+    the sample times (``p_at_t``) made from them as :func:`prepare` makes them, per pooled
+    recording."""
+    p_at_t = np.empty_like(p)
+    bounds = (0, *exp.breaks, p.shape[0])
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        for c in range(p.shape[1]):
+            p_at_t[a:b, c] = light_spline(exp.t_sensor[a:b], p[a:b, c])(exp.t[a:b])
+    return dataclasses.replace(exp, p=p, p_at_t=p_at_t)
+
+
+def light_spline(t, y, fraction: float = 0.5):
     """A smoothing spline leaving residuals at ``fraction`` of the noise level: it removes
     most of the noise but, unlike a spline at the full noise level, hardly attenuates fast
     motions (which would bias the chamber stiffness and so the fitted dead volumes)."""

@@ -31,6 +31,7 @@ from pneumatics.robot import Robot
 from .angle_replay import body_calibration_check, final_mech_mods
 from .calibrate import fit_chambers, pressure_sigma
 from .data import MIN_ROWS, pool, prepare, split
+from .flex_check import block_samples
 from .final_fit import (final_calibration, final_joint_fit, follow_angle_sensors, scale_stderr,
                         withdraw_angle_worsening, withdraw_worsening, worsening)
 from .fitted_model import fitted_model
@@ -40,6 +41,7 @@ from .pneumatic import PneumaticMods, Windows
 from .replay import MechMods, coupled_replay
 from .rules import HOLDOUT_SHARE, HORIZON, DoctorRun, Finding
 from .search import search_mechanical, search_pneumatic, start_torque_balance
+from .twin import twin_gains
 from .weak_supply import weak_supply_finding
 
 
@@ -144,6 +146,8 @@ def _calibrated_run(robot: Robot, recordings, holdouts, say) -> tuple[DoctorRun,
                     win_h=Windows.tile(len(held.t), HORIZON, breaks=held.breaks),
                     sigma=sigma, nominal=nominal, mods=mods, cfit=cfit, td=td, td_h=td_h, rfit=rfit,
                     body_check=body_check)
+    say("a twin of the recordings from the calibrated chambers (each chamber's flexible-correction floor)")
+    run.twin_gains = twin_gains(exp, held, mods, sigma, block_samples(held))
     return run, held_recs
 
 

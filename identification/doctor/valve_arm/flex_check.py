@@ -32,7 +32,7 @@ def suggested_candidates(run: DoctorRun, scored: list, chosen: list) -> list:
     corrs, _, _ = corrections(run.exp, run.held, run.mods, block_samples(run.held))
     labels = {s.hyp.label for s in chosen}
     extra = []
-    for c in paying(corrs):
+    for c in paying(corrs, run.twin_gains):
         fams = set(c.suggests)
         for s in scored:
             h = s.hyp
@@ -54,7 +54,7 @@ def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
     corrs, tr, ho = corrections(run.exp, held, run.mods, block_samples(held))
     t_b = held.t[ho.sample]
     out = []
-    for c in paying(corrs):
+    for c in paying(corrs, run.twin_gains):
         named = [f for f in run.findings if set(c.chambers) & set(f.scored.hyp.chambers)
                  or (("supply" in c.where) and f.family == "supply_droop")]
         if any(f.family in c.suggests for f in named):
@@ -76,7 +76,7 @@ def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
                          + ("" if supply else f", carried by {' and '.join(depends)}")
                          + (f"; no library effect ({', '.join(c.suggests)}) took it up" if c.suggests
                             else "; no family of the library acts through these inputs") + also)})
-    diagnostics = summary(corrs)
+    diagnostics = summary(corrs, run.twin_gains)
     # the supply in time: a step or a receiver's cycles (knots), or a pulsation; where both
     # pay, the one that takes up more (the knots follow a 1 Hz pulsation in part)
     fine = max(1, int(round(RIPPLE_BLOCK_S * held.rate_hz)))
@@ -130,7 +130,7 @@ def partial_projection(run: DoctorRun, finding) -> bool:
     correlated with it, taken for its own)."""
     hyp = finding.scored.hyp
     corrs, _, _ = corrections(run.exp, run.held, finding.scored.mods, block_samples(run.held))
-    for c in paying(corrs):
+    for c in paying(corrs, run.twin_gains):
         at = ("supply" in c.where) if hyp.family == "supply_droop" else bool(set(c.chambers) & set(hyp.chambers))
         if at and "supply" not in c.where and finding.family not in c.suggests \
                 and not named_at(run, c.chambers) & set(c.suggests):

@@ -134,6 +134,9 @@ class DoctorRun:
     """findings withdrawn because they failed the keep rule at the final joint fit"""
     body_check: dict = field(default_factory=dict)
     """the rigid body's calibration judged on the held-out angles (angle_replay.body_calibration_check)"""
+    twin_gains: dict = field(default_factory=dict)
+    """{(actuator, chamber): its flexible correction's gain on the calibrated model's twin of the
+    recordings} (twin.twin_gains): each chamber's floor in flexible.paying"""
 
     @property
     def n_chambers(self) -> int:
