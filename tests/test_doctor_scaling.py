@@ -1,5 +1,6 @@
 """The doctor's work grows linearly with the places: hypotheses at disjoint chambers share their
 probe replays, with the same scores as one at a time."""
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -85,6 +86,31 @@ def test_effect_fits_at_one_joint_equal_the_whole_fit():
             after = after + torque_rms(test_on, fit_rigid_body(fit_on, extra, names, bounds), extra, block) ** 2
         assert np.allclose(s.heldout_after, np.sqrt(after / 2), rtol=1e-9) and np.allclose(s.heldout_before, np.sqrt(before / 2))
     assert confined >= len(hyps) // 2  # most act at one joint: the split is what is being tested
+
+
+def test_the_rigid_body_fit_equals_its_reference_with_every_column():
+    """fit_rigid_body takes the held inertias' torque without copying their regressors: the
+    same values, errors, RSS and residual as the reference that fits one matrix of every
+    column, with no effect and with each mechanical hypothesis's terms."""
+    from identification.doctor.valve_arm.hypotheses import mechanical_hypotheses
+    from identification.doctor.valve_arm.mechanics import (fit_rigid_body, fit_rigid_body_reference, hold_nominal,
+                                                            torque_data)
+    from identification.doctor.valve_arm.screening import stack_terms
+
+    robot = load_robot("arm2")
+    exp = prepare(robot, read_csv(SAMPLE).slice(0, 30))
+    td = torque_data(exp)
+    cases = [(None, (), None)] + [stack_terms(None, h.regressor(exp, td), h)
+                                  for h in mechanical_hypotheses(robot, exp, td)[::5]]
+    nominal = dataclasses.replace(td)
+    hold_nominal(nominal, "held for the test")  # every column held: no free one without an effect
+    for data, (extra, names, bounds) in [(td, c) for c in cases] + [(nominal, c) for c in cases[:2]]:
+        fast, ref = fit_rigid_body(data, extra, names, bounds), fit_rigid_body_reference(data, extra, names, bounds)
+        assert fast.names == ref.names and fast.at_bound == ref.at_bound
+        np.testing.assert_allclose(fast.values, ref.values, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(fast.stderr, ref.stderr, rtol=1e-7)  # NaN where held, in both
+        np.testing.assert_allclose(fast.residual, ref.residual, rtol=0, atol=1e-9 * np.abs(ref.residual).max())
+        assert abs(fast.rss - ref.rss) <= 1e-9 * ref.rss and fast.n == ref.n
 
 
 def test_a_kept_terms_rounding_at_another_joint_neither_couples_nor_moves_it():

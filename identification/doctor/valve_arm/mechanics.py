@@ -340,6 +340,33 @@ def fit_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_names=
     ``extra_names``; held parameters have a NaN standard error."""
     cal = td.calibration if td.calibration is not None else calibrate_rigid_body(td)
     v = td.valid
+    names = list(td.names) + list(extra_names)
+    lo, hi = td.lower, td.upper
+    n_e = 0 if extra is None else extra.shape[2]
+    if n_e:
+        elo, ehi = extra_bounds if extra_bounds is not None else (np.full(n_e, -np.inf), np.full(n_e, np.inf))
+        lo, hi = np.concatenate([lo, elo]), np.concatenate([hi, ehi])
+    held = np.concatenate([cal.values, np.zeros(n_e)])
+    refit = td.refitted_beside_effects()
+    free = np.concatenate([refit, np.ones(n_e, bool)])
+    # the held columns (the inertias: most of a humanoid's hundreds) enter as the torque they
+    # predict, without a copy of the (N, J, P) regressors: scaled, sliced and copied, those
+    # copies were the doctor's peak memory on humanoid38 (4.3 GB)
+    y = td.residual[v] - (td.regressors @ np.where(refit, 0.0, cal.values))[v]
+    A = td.regressors[:, :, refit][v]
+    if n_e:
+        A = np.concatenate([A, extra[v]], axis=2)
+    scale = joint_scale(td.residual[v])
+    A2, y_f = (A / scale[None, :, None]).reshape(y.size, A.shape[2]), (y / scale).ravel()
+    return _solve_free(A2, y_f, names, lo, hi, free, held)
+
+
+def fit_rigid_body_reference(td: TorqueData, extra: np.ndarray | None = None, extra_names=(),
+                             extra_bounds=None) -> Fit:
+    """:func:`fit_rigid_body` as written first, with every column in one scaled matrix (its
+    memory several copies of the regressors): the reference it is tested against."""
+    cal = td.calibration if td.calibration is not None else calibrate_rigid_body(td)
+    v = td.valid
     A = td.regressors[v] if extra is None else np.concatenate([td.regressors[v], extra[v]], axis=2)
     names = list(td.names) + list(extra_names)
     lo, hi = td.lower, td.upper
@@ -353,30 +380,39 @@ def fit_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_names=
     return _bounded_fit(A2, y2, names, lo, hi, free, held)
 
 
+def joint_scale(y: np.ndarray) -> np.ndarray:
+    """(J,) each joint's torque residual's s.d. (N, J) [N m]: its rows' divisor in the fits."""
+    return np.maximum(np.array([np.std(y[:, j]) for j in range(y.shape[1])]), 1e-9)
+
+
 def _scaled(A, y, scale=None):
     """(A2 (M J, P), y2 (M J,), scale (J,)): each joint's rows divided by ``scale``, by default
     its residual's s.d."""
-    if scale is None:
-        scale = np.array([np.std(y[:, j]) for j in range(y.shape[1])])
-    scale = np.maximum(scale, 1e-9)
+    scale = joint_scale(y) if scale is None else np.maximum(scale, 1e-9)
     return (A / scale[None, :, None]).reshape(-1, A.shape[2]), (y / scale).ravel(), scale
 
 
 def _bounded_fit(A2, y2, names, lo, hi, free, held) -> Fit:
     """lsq_linear on the ``free`` columns, the others at their ``held`` values (NaN stderr)."""
+    y_f = y2 - A2[:, ~free] @ np.asarray(held, float)[~free]
+    return _solve_free(A2[:, free], y_f, names, lo, hi, free, held)
+
+
+def _solve_free(A_free, y_f, names, lo, hi, free, held) -> Fit:
+    """lsq_linear of ``y_f`` (the rows less the held columns' part) on ``A_free`` (the
+    ``free`` columns only); the others at their ``held`` values (NaN stderr)."""
     x = np.array(held, float)
     se = np.full(len(names), np.nan)
-    y_f = y2 - A2[:, ~free] @ x[~free]
     if not free.any():  # everything held (every damping unidentifiable, no effect terms)
-        return Fit(names, x, se, float(y_f @ y_f), y2.size, 1.0, [], y_f)
-    r = lsq_linear(A2[:, free], y_f, bounds=(lo[free], hi[free]))
+        return Fit(names, x, se, float(y_f @ y_f), y_f.size, 1.0, [], y_f)
+    r = lsq_linear(A_free, y_f, bounds=(lo[free], hi[free]))
     x[free] = r.x
-    res = y_f - A2[:, free] @ r.x
+    res = y_f - A_free @ r.x
     rss = float(res @ res)
-    se[free], cond = covariance(A2[:, free], rss, y2.size)
+    se[free], cond = covariance(A_free, rss, y_f.size)
     at = [n for n, v, a, b, f in zip(names, x, lo, hi, free)
           if f and ((np.isfinite(a) and v - a < 1e-6) or (np.isfinite(b) and b - v < 1e-6))]
-    return Fit(names, x, se, rss, y2.size, cond, at, res)
+    return Fit(names, x, se, rss, y_f.size, cond, at, res)
 
 
 def _unidentified(A2, y2, names, lo, hi, n_effects: int = 0) -> dict:
