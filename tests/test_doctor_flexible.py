@@ -297,7 +297,8 @@ def test_a_chamber_paying_no_more_than_on_its_twin_is_not_flagged():
     0.6 on every recording, effect or none (docs/humanoid_doctor.md): above the robot's
     ceiling, so flagged, unless their twin's gains (module twin) say the model pays as much
     where nothing is missing.  An effect at a chamber the samples resolve stands far above its
-    twin; a chamber whose partner is held to a higher floor by its twin stands alone."""
+    twin; a chamber whose partner its twin holds below the floor must stand out of it
+    (PARTNER_STANDOUT)."""
     from identification.doctor.valve_arm.flexible import TWIN_MARGIN, paying
 
     rng = np.random.default_rng(2)

@@ -12,11 +12,10 @@ mass-flow balance under the limit cycle").  No fixed floor tells that from an ef
 The twin asks the model the same question under the same motion: its pressures are the
 calibrated chamber model's replays, restarted every second from the measured pressures and
 driven by the measured commands and motion, sampled as the DAQ samples, with the sensors'
-noise added; its flexible
-corrections find only what the sampling and the noise make.  A chamber of the real recording
-counts as paying only TWIN_MARGIN above its twin's gain (flexible.paying).  This is a
-parametric bootstrap of the correction's null distribution, one draw (Efron & Tibshirani,
-*An Introduction to the Bootstrap*, Chapman & Hall 1993, ch. 6).
+noise added; its flexible corrections find only what the sampling and the noise make.  A
+chamber of the real recording counts as paying only TWIN_MARGIN above its twin's gain
+(flexible.paying).  This is a parametric bootstrap of the correction's null distribution, one
+draw (Efron & Tibshirani, *An Introduction to the Bootstrap*, Chapman & Hall 1993, ch. 6).
 """
 from __future__ import annotations
 
