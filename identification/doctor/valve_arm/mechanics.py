@@ -338,23 +338,14 @@ def fit_rigid_body(td: TorqueData, extra: np.ndarray | None = None, extra_names=
     refitted with the effect.  Without ``extra`` this is the calibrated model's raw fit, the
     baseline effects are scored against.  Values in the order of ``td.names`` then
     ``extra_names``; held parameters have a NaN standard error."""
-    cal = td.calibration if td.calibration is not None else calibrate_rigid_body(td)
-    v = td.valid
-    names = list(td.names) + list(extra_names)
-    lo, hi = td.lower, td.upper
-    n_e = 0 if extra is None else extra.shape[2]
-    if n_e:
-        elo, ehi = extra_bounds if extra_bounds is not None else (np.full(n_e, -np.inf), np.full(n_e, np.inf))
-        lo, hi = np.concatenate([lo, elo]), np.concatenate([hi, ehi])
-    held = np.concatenate([cal.values, np.zeros(n_e)])
-    refit = td.refitted_beside_effects()
-    free = np.concatenate([refit, np.ones(n_e, bool)])
+    cal, names, lo, hi, held, free = _effect_fit_terms(td, extra, extra_names, extra_bounds)
+    v, refit = td.valid, free[: len(td.names)]
     # the held columns (the inertias: most of a humanoid's hundreds) enter as the torque they
     # predict, without a copy of the (N, J, P) regressors: scaled, sliced and copied, those
     # copies were the doctor's peak memory on humanoid38 (4263 MiB on a null case, 3358 without)
     y = td.residual[v] - (td.regressors @ np.where(refit, 0.0, cal.values))[v]
     A = td.regressors[:, :, refit][v]
-    if n_e:
+    if extra is not None:
         A = np.concatenate([A, extra[v]], axis=2)
     scale = joint_scale(td.residual[v])
     A2, y_f = (A / scale[None, :, None]).reshape(y.size, A.shape[2]), (y / scale).ravel()
@@ -365,9 +356,18 @@ def fit_rigid_body_reference(td: TorqueData, extra: np.ndarray | None = None, ex
                              extra_bounds=None) -> Fit:
     """:func:`fit_rigid_body` as written first, with every column in one scaled matrix (its
     memory several copies of the regressors): the reference it is tested against."""
-    cal = td.calibration if td.calibration is not None else calibrate_rigid_body(td)
+    _, names, lo, hi, held, free = _effect_fit_terms(td, extra, extra_names, extra_bounds)
     v = td.valid
     A = td.regressors[v] if extra is None else np.concatenate([td.regressors[v], extra[v]], axis=2)
+    A2, y2, _ = _scaled(A, td.residual[v])
+    return _bounded_fit(A2, y2, names, lo, hi, free, held)
+
+
+def _effect_fit_terms(td: TorqueData, extra, extra_names, extra_bounds):
+    """(calibration, names, lower and upper bounds, held values, free mask) of an effect fit
+    over the calibration's columns then ``extra``'s (E columns, unbounded unless
+    ``extra_bounds``): the damping and the effect free, the inertias held at the calibration."""
+    cal = td.calibration if td.calibration is not None else calibrate_rigid_body(td)
     names = list(td.names) + list(extra_names)
     lo, hi = td.lower, td.upper
     n_e = 0 if extra is None else extra.shape[2]
@@ -376,8 +376,7 @@ def fit_rigid_body_reference(td: TorqueData, extra: np.ndarray | None = None, ex
         lo, hi = np.concatenate([lo, elo]), np.concatenate([hi, ehi])
     held = np.concatenate([cal.values, np.zeros(n_e)])
     free = np.concatenate([td.refitted_beside_effects(), np.ones(n_e, bool)])
-    A2, y2, _ = _scaled(A, td.residual[v])
-    return _bounded_fit(A2, y2, names, lo, hi, free, held)
+    return cal, names, lo, hi, held, free
 
 
 def joint_scale(y: np.ndarray) -> np.ndarray:
