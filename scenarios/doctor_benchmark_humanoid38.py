@@ -220,7 +220,7 @@ def plot_doctor_time(ctx, rows: list[dict], arm2: dict, parts: list[dict], secon
     ax.minorticks_off()
     ax.set_xlabel("chambers")
     ax.set_ylabel("doctor time [s]")
-    ax.set_title(f"arm doctor time, {seconds:.0f} s + {heldout_s:.0f} s recordings", fontsize=10)
+    ax.set_title(f"doctor time against the chambers diagnosed, {seconds:.0f} s + {heldout_s:.0f} s recordings", fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
     ctx.savefig(fig, "doctor_time.png")
