@@ -324,7 +324,7 @@ def test_the_twin_of_the_null_sample_follows_it_and_pays_nowhere(null_calibrated
     every TWIN_RESTART_S) stays within the sensor noise's order of the null sample's pressures,
     and the flexible corrections find nothing on it: the floor a twin sets on a recording
     whose model lacks nothing is the robot's own (FLEX_FLOOR)."""
-    from identification.doctor.valve_arm.data import with_pressures
+    from identification.doctor.valve_arm.data import pool, with_pressures
     from identification.doctor.valve_arm.flexible import TWIN_MARGIN
     from identification.doctor.valve_arm.twin import TWIN_RESTART_S, model_pressures, twin_gains
 
@@ -334,6 +334,10 @@ def test_the_twin_of_the_null_sample_follows_it_and_pays_nowhere(null_calibrated
     assert np.array_equal(p[0], exp.p[0]) and TWIN_RESTART_S * exp.rate_hz < len(exp.t) / 10
     assert np.all(np.sqrt(np.mean((p - exp.p) ** 2, axis=0)) < 3 * sigma)
     np.testing.assert_array_equal(with_pressures(exp, exp.p).p_at_t, exp.p_at_t)
+    # pooled recordings (several files given): their pressures at the sample times per recording
+    pooled = pool([exp, held])
+    np.testing.assert_allclose(with_pressures(pooled, pooled.p).p_at_t, pooled.p_at_t, rtol=1e-9)
+    assert model_pressures(pooled, mods)[len(exp.t)].tolist() == held.p[0].tolist()  # restarted at the join
     gains = twin_gains(exp, held, mods, sigma, 10)
     assert set(gains) == set(robot.chamber_names)
     assert max(gains.values()) < FLEX_FLOOR - TWIN_MARGIN
