@@ -209,7 +209,7 @@ def score_mechanical(td, exp, hyps, base_extra=None):
         f = fit_effect(td, extra, names, bounds, base, base_cols)  # at its joint alone where it acts at one
         gain = 1.0 - f.rss / max(base.rss, 1e-300)
         # its (N J) residual is not read again (the held-out judge takes the values): kept for
-        # every hypothesis of a round, on humanoid38 the third round's peak was 4.27 GB, 3.92 without
+        # every hypothesis of a round, on humanoid38 the third round's peak was 4269 MiB, 3920 without
         out.append(Scored(h, gain, fit=dataclasses.replace(f, residual=None)))
     return out, base
 
