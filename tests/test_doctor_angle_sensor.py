@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from identification.doctor.valve_arm.angle_replay import HORIZON_S, TIE_RATIO
 from identification.doctor.valve_arm.hypotheses import ANGLE_GAIN_MAX, Hypothesis, mechanical_hypotheses
 from identification.doctor.valve_arm.search import at_plausibility_cap
 from pneumatics.robot import load_robot
@@ -54,6 +55,10 @@ def test_an_angle_sensor_with_a_gain_error_is_named_with_its_gain(tmp_path):
     assert f["parameters"]["offset_rad"]["value"] == pytest.approx(0.02, abs=0.004)
     assert f["parameters"]["scale_error"]["value"] == pytest.approx(0.03, abs=0.006)
     assert f["heldout_nrmse"]["after"] < 0.7 * f["heldout_nrmse"]["before"]
+    # the numbers of the rule that kept it (angle_replay's 0.2 s replays), beside the coupled replay's
+    a = f["heldout_nrmse_angle_replay"]
+    assert a["channel"] == "q.elbow" and a["replay_horizon_s"] == HORIZON_S
+    assert a["after"] <= TIE_RATIO * a["before"]
 
 
 @pytest.mark.slow

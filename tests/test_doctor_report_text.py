@@ -1,6 +1,6 @@
 """What the valve-arm doctor's summary and report.md tell a user whose rigid body was held
 nominal (identification/doctor/valve_arm/report.py)."""
-from identification.doctor.valve_arm.report import kept_nominal_lines, summary
+from identification.doctor.valve_arm.report import change, kept_nominal_lines, summary
 
 WHY = "the calibrated rigid body replayed the held-out angles worse than the nominal one"
 
@@ -25,3 +25,20 @@ def test_a_body_held_nominal_as_a_whole_is_one_line_of_report_md():
     assert len(lines) == 2
     assert "and 70 more" in lines[0] and WHY in lines[0]
     assert lines[1] == "- kept nominal, armature_scale.shoulder: lumped with the upper link"
+
+
+def _angle_offset_finding(before: float, after: float) -> dict:
+    return {"effect": "angle_sensor_offset", "where": {"joint": "left_knee"}, "regime": "throughout",
+            "windows": [], "parameters": {"offset_rad": {"value": 0.004, "stderr": 1e-4}}, "alternatives": [],
+            "heldout_nrmse": {"before": before, "after": after}, "heldout_channel": "q.left_knee",
+            "heldout_nrmse_in_regime": None,
+            "heldout_nrmse_angle_replay": {"channel": "q.left_knee", "before": 0.0400, "after": 0.0350,
+                                           "replay_horizon_s": 0.2}}
+
+
+def test_a_finding_whose_coupled_replay_got_worse_says_worse_and_shows_the_numbers_that_kept_it():
+    rep = _report(body_kept=True) | {"verdict": "missing_physics", "findings": [_angle_offset_finding(0.050, 0.052)]}
+    text = summary(rep)
+    assert "4 % worse" in text and "-4 % better" not in text
+    assert "kept by its joint's angle, replayed 0.2 s at a time" in text and "0.0400 → 0.0350 (12 % better)" in text
+    assert change(0.05, 0.04) == "20 % better" and change(0.05, 0.05) == "0 % better"

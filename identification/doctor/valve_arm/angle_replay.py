@@ -174,8 +174,20 @@ def angle_rule_verdict(before: float, after: float, body_kept: bool = True) -> s
 
 def angle_worsening(run: DoctorRun) -> list[tuple[Finding, int, float, float, str]]:
     """(finding, its joint, the joint's held-out angle NRMSE without it, with it, why) for every
-    judged finding whose replay of its joint's angle is worse than TIE_RATIO times the one
-    without it (``why``: angle_rule_verdict's), the worst first.  The margin is a tie's, not
+    judged finding whose replay of its joint's angle the keep rule refuses (:func:`angle_judgements`),
+    the worst first."""
+    return refused(angle_judgements(run))
+
+
+def refused(rows: list) -> list:
+    """The rows of :func:`angle_judgements` the keep rule refuses, the worst first."""
+    return sorted((r for r in rows if r[4]), key=lambda r: -r[3] / max(r[2], 1e-300))
+
+
+def angle_judgements(run: DoctorRun) -> list[tuple[Finding, int, float, float, str | None]]:
+    """(finding, its joint, the joint's held-out angle NRMSE without it, with it, why or None)
+    for every judged finding (:func:`judged`); ``why`` is angle_rule_verdict's: the replay of its
+    joint's angle is worse than TIE_RATIO times the one without it.  The margin is a tie's, not
     the coupled replay's 10 % (final_fit.WORSE_RATIO, whose chambers drift on their own): this
     replay restarts from measured pressures and angles every 0.2 s, and a finding is reported
     to show the held-out fit improve.
@@ -196,10 +208,8 @@ def angle_worsening(run: DoctorRun) -> list[tuple[Finding, int, float, float, st
     for f, j, pmods, mm in found:
         after = angle_nrmse(run.held, with_all, j)
         before = angle_nrmse(run.held, pressure_driven_angles(run.held, pmods, mm), j)
-        verdict = angle_rule_verdict(before, after, body_kept)
-        if verdict:
-            out.append((f, j, before, after, verdict))
-    return sorted(out, key=lambda x: -x[3] / max(x[2], 1e-300))
+        out.append((f, j, before, after, angle_rule_verdict(before, after, body_kept)))
+    return out
 
 
 def yardstick_angle(run: DoctorRun, yard) -> tuple[float, float]:

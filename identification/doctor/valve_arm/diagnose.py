@@ -288,6 +288,7 @@ def _finding_json(f: Finding) -> dict:
         "heldout_channel": f.nrmse.get("channel"),
         "heldout_nrmse_in_regime": f.nrmse.get("in_regime"),
         "heldout_nrmse_by_regime": f.nrmse.get("by_regime", {}),
+        "heldout_nrmse_angle_replay": f.angle_replay or None,
         "heldout_equation_error_reduction": f.heldout_gain,
         "alternatives": f.alternatives,
         "alternative_places": f.alternative_places,
