@@ -1,5 +1,6 @@
 """What the valve-arm doctor's summary and report.md tell a user whose rigid body was held
-nominal (identification/doctor/valve_arm/report.py)."""
+nominal, and what they say of a finding whose coupled held-out replay got worse
+(identification/doctor/valve_arm/report.py)."""
 from identification.doctor.valve_arm.report import change, kept_nominal_lines, summary
 
 WHY = "the calibrated rigid body replayed the held-out angles worse than the nominal one"

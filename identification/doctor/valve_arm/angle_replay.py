@@ -172,13 +172,6 @@ def angle_rule_verdict(before: float, after: float, body_kept: bool = True) -> s
     return None
 
 
-def angle_worsening(run: DoctorRun) -> list[tuple[Finding, int, float, float, str]]:
-    """(finding, its joint, the joint's held-out angle NRMSE without it, with it, why) for every
-    judged finding whose replay of its joint's angle the keep rule refuses (:func:`angle_judgements`),
-    the worst first."""
-    return refused(angle_judgements(run))
-
-
 def refused(rows: list) -> list:
     """The rows of :func:`angle_judgements` the keep rule refuses, the worst first."""
     return sorted((r for r in rows if r[4]), key=lambda r: -r[3] / max(r[2], 1e-300))
@@ -218,7 +211,7 @@ def yardstick_angle(run: DoctorRun, yard) -> tuple[float, float]:
     smooth_torque or angle_profile yardstick, fitted beside the kept terms; the rigid body and
     kept torques of that fit in both replays).  The torque balance found the yardstick paying;
     this asks whether its torque predicts the joint's motion, as the keep rule asks of a
-    finding (:func:`angle_worsening`): on humanoid38's nulls the equation error of the limit
+    finding (:func:`angle_judgements`): on humanoid38's nulls the equation error of the limit
     cycle's light joints (the jaw) is paid by a yardstick that is not a torque on the link."""
     h, k = yard.hyp, len(yard.hyp.params)
     body = replace(yard.fit, names=list(yard.fit.names[:-k]), values=yard.fit.values[:-k])
