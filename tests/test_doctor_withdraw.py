@@ -8,10 +8,10 @@ import pytest
 from identification.doctor.valve_arm.final_fit import WORSE_RATIO, worsening
 
 
-def _finding(before, after, kept=True, refined=False):
+def _finding(before, after, kept=True, refined=False, output_error=False):
     hyp = SimpleNamespace(label=object())   # distinct hypotheses
     return SimpleNamespace(scored=SimpleNamespace(hyp=hyp), nrmse={"before": before, "after": after, "channel": "q.elbow"},
-                           _kept=kept, _refined=refined)
+                           _kept=kept, _refined=refined, output_error=output_error)
 
 
 def test_only_torque_balance_findings_that_worsen_their_channel_are_picked_worst_first():
@@ -21,11 +21,14 @@ def test_only_torque_balance_findings_that_worsen_their_channel_are_picked_worst
     edge = _finding(0.049, 0.049 * WORSE_RATIO * 0.99)   # within the margin
     pneumatic = _finding(0.2, 0.4, kept=False)   # the replays' own finding: not the torque balance's
     refined = _finding(0.2, 0.4, refined=True)   # a replay offset the torque balance only refined
-    findings = [fine, offset, edge, pneumatic, refined, stop]
+    # a joint effect fitted to the replayed angles (output_error.py): not in the torque
+    # balance, judged by the same rule
+    replayed = _finding(0.03, 0.06, kept=False, output_error=True)
+    findings = [fine, offset, edge, pneumatic, refined, stop, replayed]
     run = SimpleNamespace(findings=findings,
                           kept_mech=[f.scored.hyp for f in findings if f._kept],
                           refine=[f.scored.hyp for f in findings if f._refined])
-    assert worsening(run) == [stop, offset]
+    assert worsening(run) == [stop, replayed, offset]
 
 
 # a whole doctor's run, slow for CI's 15 minutes;

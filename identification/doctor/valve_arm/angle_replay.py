@@ -74,14 +74,15 @@ BODY_WORSE_RATIO = 1.5
 
 
 def pressure_driven_angles(exp: Experiment, pmods: PneumaticMods, mm: MechMods,
-                           horizon_s: float = HORIZON_S) -> np.ndarray:
+                           horizon_s: float = HORIZON_S, every: int = 1) -> np.ndarray:
     """(N, J) the angles as read, replayed in windows of ``horizon_s`` from the measured state
     with the measured pressures (``pmods``'s sensor offsets removed) and ``mm``'s rigid body
-    and torques; NaN on the rows no window replays."""
+    and torques; NaN on the rows no window replays (``every``: only every such window)."""
     robot = exp.robot
     model = replay_model(robot, pmods, mm)
     S, J, ids = exp.n_sub, len(robot.joint_names), robot.actuator_ids
     starts, H = window_starts(exp, horizon_s)
+    starts = starts[::every]
     qadr, dadr = addresses(model, robot.joint_names)
     offset, scale, q0, qd0 = start_state(exp, starts, mm)
     forces = actuator_force(robot.tables, fine_pressures(exp, pmods))       # (F, n_act)
@@ -137,7 +138,19 @@ def final_mech_mods(run: DoctorRun, without: Finding | None = None, fit=None) ->
     mm.viscous_exponents = {h.joint: h.fixed["exponent"]["value"] for h in run.kept_mech
                             if h.form == "velocity_power" and h is not skip}
     add_breakaway(mm, [f for f in run.findings if f is not without], len(robot.joint_names))
-    return mm
+    return with_replay_terms(mm, [t for f in run.findings if f is not without for t in f.replay_terms],
+                             len(robot.joint_names))
+
+
+def with_replay_terms(mm: MechMods, terms, n_joints: int) -> MechMods:
+    """A copy of ``mm`` with ``terms`` [(MechMods attribute, joint, value)] added: the torques
+    and angle offsets of the output-error findings (output_error.py), or a candidate's."""
+    out = replace(mm)
+    for attr, j, v in terms:
+        arr = np.zeros(n_joints) if getattr(out, attr) is None else getattr(out, attr).copy()
+        arr[j] += v
+        setattr(out, attr, arr)
+    return out
 
 
 def judged(run: DoctorRun) -> list[tuple[Finding, int, PneumaticMods, MechMods]]:

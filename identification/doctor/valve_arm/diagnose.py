@@ -37,6 +37,7 @@ from .final_fit import (final_calibration, final_joint_fit, follow_angle_sensors
 from .fitted_model import fitted_model
 from .locate import Located, locate, mods_without_all
 from .mechanics import fit_rigid_body, hold_nominal, torque_data
+from .output_error import search_output_error
 from .pneumatic import PneumaticMods, Windows
 from .replay import MechMods, coupled_replay
 from .rules import HOLDOUT_SHARE, HORIZON, DoctorRun, Finding
@@ -69,6 +70,8 @@ def _diagnose(robot: Robot, recordings, holdouts, progress) -> dict:
     calibrated.update({n: float(1 + v) for n, v in zip(run.rfit.names, run.rfit.values)})
     search_pneumatic(run, say)
     start_torque_balance(run)
+    if run.td.held_nominal:  # the torque balance does not predict this robot's angles
+        search_output_error(run, say)
     search_mechanical(run, say)
     final_joint_fit(run)
     follow_angle_sensors(run)
@@ -207,6 +210,7 @@ def _report(run: DoctorRun, located: Located, replays: dict, calibrated: dict, f
             "parameters_at_bounds": cfit.at_bound + rfit.at_bound,
             "rigid_body_kept_nominal": dict(td.fixed or {}),
             "rigid_body_calibration_replay": run.body_check,
+            "output_error_screen": run.output_error_screen,
             **tests,
             "ljung_box_q_heldout_pressure": {k: v["after"]["q"] for k, v in tests["ljung_box_heldout_pressure"].items()},
             "train_seconds": float(run.exp.t[-1] - run.exp.t[0]),
@@ -273,7 +277,7 @@ def _evidence(f: Finding) -> str:
     judged = "" if f.scored.judged_by == "held-out data" else f" (judged by {f.scored.judged_by})"
     seen = f"; {f.evidence}" if f.evidence else ""  # what a naming test saw (breakaway.py)
     return (f"{f.family} at {where} ({p}) removes {100 * f.heldout_gain:.0f} % of the held-out "
-            f"{'pressure' if f.scored.hyp.kind == 'pneumatic' else 'torque'} residual{judged}, concentrated in {f.regime}{alt}{seen}")
+            f"{'pressure' if f.scored.hyp.kind == 'pneumatic' else 'angle' if f.output_error else 'torque'} residual{judged}, concentrated in {f.regime}{alt}{seen}")
 
 
 def _finding_json(f: Finding) -> dict:

@@ -91,9 +91,9 @@ WORSE_RATIO = 1.1
 
 def worsening(run: DoctorRun) -> list:
     """The torque-balance findings (end stops, friction, angle offsets; a pressure offset the
-    replays found is theirs) whose held-out channel got worse in the coupled replay (``f.nrmse``
-    as diagnose._prove set it), the worst first."""
-    out = [f for f in run.findings if f.scored.hyp in run.kept_mech and f.scored.hyp not in run.refine
+    replays found is theirs) and those fitted by output error whose held-out channel got worse
+    in the coupled replay (``f.nrmse`` as diagnose._prove set it), the worst first."""
+    out = [f for f in run.findings if (f.scored.hyp in run.kept_mech and f.scored.hyp not in run.refine or f.output_error)
            and f.nrmse and f.nrmse["after"] > WORSE_RATIO * f.nrmse["before"]]
     return sorted(out, key=lambda f: -f.nrmse["after"] / max(f.nrmse["before"], 1e-300))
 
@@ -185,6 +185,9 @@ def follow_angle_sensors(run: DoctorRun) -> None:
     for h, vals, _ in run.finals:
         if h.family == "angle_sensor_offset":
             offset[h.joint], scale[h.joint] = vals[0], (vals[1] if len(vals) > 1 else 0.0)
+    for f in run.findings:  # and those fitted by output error (output_error.py)
+        if f.output_error and f.family == "angle_sensor_offset":
+            offset[f.scored.hyp.joint] = f.params["offset_rad"]["value"]
     if run.read is None:
         if not (offset.any() or scale.any()):
             return

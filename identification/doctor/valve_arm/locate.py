@@ -12,6 +12,7 @@ from identification.base.statistics import bootstrap_inclusion, locate_energy, l
 from .flex_check import flexible_unexplained
 from .pneumatic import PneumaticMods, replay
 from .hypotheses import ANGLE_PROFILE_BIN_RAD
+from .output_error import locate_output_error
 from .regimes import chamber_regimes, joint_regimes
 from .rules import HORIZON, MECH_KEEP, PNEU_KEEP, TRAIN_RATIO, UNEXPLAINED_RATIO, DoctorRun, Finding
 from .torque_judge import joint_residual, mech_block, stacked_regressors
@@ -47,6 +48,8 @@ def locate(run: DoctorRun, flags: list) -> Located:
     for f in run.findings:
         if f.scored.hyp.kind == "pneumatic":
             _locate_pneumatic(run, f, meas_h, res_h, idx_h, t_h, pred_t - meas_t)
+        elif f.output_error:
+            locate_output_error(run, f)
         else:
             _locate_mechanical(run, f)
         if f.alternative_places:

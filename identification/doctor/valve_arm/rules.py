@@ -68,6 +68,14 @@ class Finding:
     regimes: dict = field(default_factory=dict)  # regime name -> (N,) bool over the held-out samples, at its place
     first_form_pays: bool = False  # found in a richer form, its family's first form passed the keep rule too
     angle_replay: dict = field(default_factory=dict)  # its joint's held-out angle NRMSE in angle_replay's replays, which kept it
+    #: (MechMods attribute, joint, value) the replays add for a finding fitted by output error
+    #: (output_error.py), whose term is not in the torque balance
+    replay_terms: list = field(default_factory=list)
+
+    @property
+    def output_error(self) -> bool:
+        """Whether this finding was fitted to its joint's replayed angles (output_error.py)."""
+        return bool(self.replay_terms)
 
 
 @dataclass
@@ -129,6 +137,8 @@ class DoctorRun:
     """pressure-sensor offsets the replays found, refined by the torque balance"""
     final_rfit: Fit | None = None
     """the final joint fit (calibration and every kept term)"""
+    output_error_screen: dict = field(default_factory=dict)
+    """family -> the output-error screen's floor and each joint's training gain (output_error.screened)"""
     finals: list = field(default_factory=list)
     """(hypothesis, values, standard errors) of every kept term at the final joint fit"""
     withdrawn: list = field(default_factory=list)

@@ -201,10 +201,12 @@ def start_torque_balance(run: DoctorRun) -> None:
 def search_mechanical(run: DoctorRun, say) -> None:
     """Up to MAX_ROUNDS rounds of torque-balance hypotheses (linear fits), each kept effect
     checked against the yardstick; then the joints where nothing was kept but the yardstick
-    still pays (outside_without_finding)."""
+    still pays (outside_without_finding).  Where the rigid body was held nominal the rounds are
+    not run: the torque balance's fits do not predict that robot's angles, and its joint
+    effects were fitted by output error instead (output_error.search_output_error)."""
     exp, held, robot = run.exp, run.held, run.robot
     library, placed_with = None, None
-    for rnd in range(MAX_ROUNDS):
+    for rnd in range(0 if run.td.held_nominal else MAX_ROUNDS):
         say(f"scoring mechanical hypotheses (round {rnd + 1})")
         # the end stops are placed by a grid search on the calibrated torque balance (on
         # humanoid38 most of a round's cost): again only once a kept effect recalibrated it

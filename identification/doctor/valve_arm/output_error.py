@@ -1,0 +1,327 @@
+"""Name the joints' effects by the angles they replay (output error), where the torque balance
+cannot be trusted to.
+
+Where the rigid body's calibration was held nominal (angle_replay.body_calibration_check: the
+torque balance fitted on the recording replayed its held-out angles worse than the nominal
+body), the torque balance's equation error is dominated by what the samples do not resolve --
+humanoid38 limit-cycles at 9-14 Hz under its PIDF, and inverse dynamics at the splines'
+accelerations is off by up to the actuators' own torque (docs/humanoid_doctor.md).  Its fitted
+values and held-out gains are then no evidence: a concealed Coulomb friction of 0.0168 N m at
+humanoid38's right_wrist_yaw (development seed 951092721) took 0.055 of that joint's held-out
+torque residual, below MECH_KEEP and behind the jaw's and a toe's; its torque-balance value was
+twice the true one, and with it the joint's replayed held-out angle did not improve (0.996);
+a true viscous friction at left_wrist_pitch (951092725) made that joint's held-out torque
+residual worse.
+
+The output-error method (Ljung, *System Identification*, 2nd ed., 1999, §4.2 and §7.3;
+Gautier, Janot & Vandanjon, IEEE TCST 21(2), 2013, for robots) fits each candidate to the
+angles the rigid body replays from the measured state, driven by the measured pressures
+(angle_replay.pressure_driven_angles, 0.2 s windows): one Gauss-Newton step from zero on the
+joint's own angle, the sensitivities taken by replaying a probe step.  Its standard errors are
+cluster-robust with the replay windows as clusters (Liang & Zeger, Biometrika 73(1), 1986): a
+window's errors are one draw, not H.
+
+1. **Screen** (:func:`screened`): one replay per parameter and group of joints no one of which
+   is an ancestor of another (:func:`joint_levels`; 3 x 11 replays of a third of the training
+   windows on humanoid38), every joint probed at once; each joint's family fitted on its own
+   angle from them.
+2. **Fit** (:func:`fit_by_output_error`): the candidates that pass the screen, alone, from
+   their screened values (k replays for k parameters; a Coulomb friction also as a stiction).
+3. **Name** (:func:`search_output_error`): a fit whose values are physical and OUTPUT_ERROR_MIN_T
+   cluster-robust errors from zero, that removes MIN_TRAIN_GAIN of its joint's training angle
+   error and replays its joint's held-out angle at most KEEP_RATIO times the NRMSE without it;
+   the best held-out ratio first, greedy, one effect per joint.
+
+The right wrist's friction this way: 0.0174 N m (23 standard errors), the training angle's
+mean square down 60 %, the held-out angle's NRMSE 0.080 -> 0.063; the left wrist's viscous
+friction 0.0233 N m s/rad (true 0.0259), held-out NRMSE ratio 0.35.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from identification.base.statistics import bootstrap_inclusion, locate_energy, robust_ceiling, windows
+
+from .angle_replay import HORIZON_S, angle_nrmse, final_mech_mods, pressure_driven_angles, with_replay_terms
+from .hypotheses import mechanical_hypotheses
+from .replay import MechMods, window_starts
+from .mechanics import fit_rigid_body
+from .regimes import joint_regimes
+from .rules import MAX_ROUNDS, DoctorRun, Finding, passes_keep_rule
+from .screening import Scored
+
+#: the families fitted by output error (their first forms): the torque laws and the angle
+#: sensor's offset, whose replays need no placement (end stops are placed by the torque
+#: balance's grid, a pressure-sensor offset is the pressure replays' to find).  The screen
+#: fits the one-parameter ones; a joint whose Coulomb friction passes it is fitted as a
+#: stiction too (a Coulomb level and a breakaway excess).  Family -> its parameter
+SCREEN_FAMILIES = {"coulomb_friction": "coulomb_nm", "viscous_friction": "viscous_nm_s_per_rad",
+                   "angle_sensor_offset": "offset_rad"}
+#: each parameter -> the MechMods attribute its replay sets (search.MECH_ATTRS' subset)
+ATTRS = {"coulomb_nm": "coulomb_nm", "breakaway_extra_nm": "stiction_extra_nm",
+         "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad"}
+#: the screen's probe: a torque of this share of the joint's rms actuator torque (a Coulomb
+#: level; over the joint's rms speed, a viscous coefficient), an angle offset of PROBE_OFFSET_RAD:
+#: small enough for the replay to answer linearly, large against the replay's round-off
+PROBE_TORQUE_SHARE = 0.02
+PROBE_OFFSET_RAD = 0.005
+#: the screen replays every SCREEN_EVERY-th window of the training data (100 windows of 0.2 s
+#: on a 60 s recording), the fits every TRAIN_EVERY-th (150)
+SCREEN_EVERY = 3
+TRAIN_EVERY = 2
+#: share of its joint's training angle mean square a candidate must remove in the screen ...
+SCREEN_GAIN = 0.1
+#: ... and in its own fit
+MIN_TRAIN_GAIN = 0.2
+#: a named effect's parameters stand this many cluster-robust standard errors from zero: twice
+#: the keep rule's MIN_T, because those errors count the noise but not the rigid body's own
+#: mismatch, which the replays also carry.  On four development nulls of humanoid38 (60 s + 30 s,
+#: +-3 % parameter errors; seeds 951092749-752) that mismatch gave viscous frictions of 4.0-6.8
+#: standard errors at three joints (left_shoulder_pitch, neck_pitch, right_hip_yaw), each also
+#: improving its held-out angle (NRMSE ratios 0.68-0.94): a replay that falls away from the
+#: recording (an inverted pendulum at the hips, neck and shoulders) is held closer by any damping
+OUTPUT_ERROR_MIN_T = 8.0
+#: a candidate is named when it replays its joint's held-out angle at most this many times the
+#: NRMSE without it (a tenth of the mean square removed)
+KEEP_RATIO = 0.95
+#: at most this many screened candidates (best screen gain first) get their own fit
+MAX_CANDIDATES = 8
+
+
+@dataclass
+class OutputErrorFit:
+    """One candidate fitted by output error on its joint's angle."""
+
+    scored: object          # the torque balance's Scored hypothesis (its place, family, probe step)
+    values: np.ndarray      # (k,) fitted parameters
+    stderr: np.ndarray      # (k,) cluster-robust standard errors
+    train_gain: float       # share of the joint's training angle mean square removed
+    before: float = np.nan  # the joint's held-out angle NRMSE without it ...
+    after: float = np.nan   # ... and with it
+    heldout_scale: float = np.nan     # the scale of ``values`` the held-out angle fits (1: the same effect)
+    heldout_scale_se: float = np.nan  # its cluster-robust standard error
+
+    @property
+    def ratio(self) -> float:
+        return self.after / max(self.before, 1e-300)
+
+
+def terms_of(hyp, values) -> list:
+    """[(MechMods attribute, joint, value)] of hypothesis ``hyp``'s parameters ``values``."""
+    return [(ATTRS[name], hyp.joint, float(v)) for (name, *_), v in zip(hyp.params, values)]
+
+
+def window_rows(exp, every: int) -> np.ndarray:
+    """(W, H) the rows each replayed window of pressure_driven_angles(..., every) fills."""
+    starts, H = window_starts(exp, HORIZON_S)
+    rows = starts[::every, None] + 1 + np.arange(H)[None]
+    return rows[np.all(rows < len(exp.t), axis=1)]
+
+
+def joint_levels(robot) -> list[list[int]]:
+    """The joints grouped by their place in the kinematic tree (how many joints lie between
+    the root and them): no joint of a group is an ancestor of another, so a torque at each moves
+    the others only through the bodies they share a parent in (humanoid38: 11 groups of 2-5)."""
+    m, levels = robot.model, {}
+    for j, name in enumerate(robot.joint_names):
+        jnt = m.joint(name)
+        body = int(jnt.bodyid[0])
+        depth = int(jnt.id - m.body_jntadr[body])
+        parent = int(m.body_parentid[body])
+        while parent > 0:
+            depth += int(m.body_jntnum[parent])
+            parent = int(m.body_parentid[parent])
+        levels.setdefault(depth, []).append(j)
+    return [levels[d] for d in sorted(levels)]
+
+
+def probe_steps(run: DoctorRun) -> dict:
+    """parameter -> (J,) the screen's probe step at each joint (PROBE_TORQUE_SHARE, PROBE_OFFSET_RAD)."""
+    tau = np.sqrt(np.mean(np.where(run.td.valid[:, None], run.td.tau_act, 0.0) ** 2, axis=0)
+                  / max(float(np.mean(run.td.valid)), 1e-12))
+    torque = np.maximum(PROBE_TORQUE_SHARE * tau, 1e-6)
+    speed = np.maximum(np.sqrt(np.mean(run.exp.qd ** 2, axis=0)), 1e-3)
+    return {"coulomb_nm": torque, "viscous_nm_s_per_rad": torque / speed,
+            "offset_rad": np.full(tau.size, PROBE_OFFSET_RAD)}
+
+
+def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
+                        base_q: np.ndarray) -> OutputErrorFit | None:
+    """Candidate ``s`` (a Scored hypothesis) fitted on its joint's training angle: the
+    replay's change for each parameter's probe ``step`` (k,), one Gauss-Newton step from zero
+    (``base_q``: the training replay of ``base_mm``, every TRAIN_EVERY-th window).  None when
+    the replays do not move the angle in k directions."""
+    h, J, exp = s.hyp, len(run.robot.joint_names), run.exp
+    rows = window_rows(exp, TRAIN_EVERY)
+    cols = []
+    for i in range(len(h.params)):
+        probe = np.zeros(len(h.params))
+        probe[i] = step[i]
+        q = pressure_driven_angles(exp, run.mods, with_replay_terms(base_mm, terms_of(h, probe), J), every=TRAIN_EVERY)
+        cols.append((q[rows, h.joint] - base_q[rows, h.joint]) / step[i])   # (W, H) d q_j / d theta_i
+    A = np.stack(cols, axis=-1)                                            # (W, H, k)
+    r = exp.q[rows, h.joint] - base_q[rows, h.joint]                       # (W, H)
+    ok = np.all(np.isfinite(A), axis=(1, 2)) & np.all(np.isfinite(r), axis=1)
+    step_fit = gauss_newton_step(A[ok], r[ok])
+    return None if step_fit is None else OutputErrorFit(s, *step_fit)
+
+
+def gauss_newton_step(A: np.ndarray, r: np.ndarray) -> tuple | None:
+    """(theta (k,), cluster-robust standard errors (k,), share of ``r``'s mean square removed)
+    of the least-squares step r ~ A theta, with ``A`` (W, H, k) the sensitivities and ``r``
+    (W, H) the residual of W windows of H rows each; the windows are the clusters (Liang &
+    Zeger 1986: the sandwich (A'A)^-1 (sum_w g_w g_w') (A'A)^-1, g_w a window's score).  None
+    when A's columns do not span k directions."""
+    k = A.shape[-1]
+    AtA = np.einsum("whk,whl->kl", A, A)
+    if A.shape[0] <= k or not np.all(np.isfinite(AtA)) or np.linalg.matrix_rank(AtA) < k:
+        return None
+    theta = np.linalg.solve(AtA, np.einsum("whk,wh->k", A, r))
+    e = r - A @ theta
+    g = np.einsum("whk,wh->wk", A, e)                                    # each window's score
+    inv = np.linalg.inv(AtA)
+    cov = inv @ (g.T @ g) @ inv
+    gain = 1.0 - float(np.sum(e ** 2)) / max(float(np.sum(r ** 2)), 1e-300)
+    return theta, np.sqrt(np.maximum(np.diag(cov), 0.0)), gain
+
+
+def physical(fit: OutputErrorFit, tested: bool = True) -> bool:
+    """Frictions dissipate (every parameter within its hypothesis's bounds) and, if
+    ``tested``, the fitted values pass the keep rule (MIN_T cluster-robust standard errors
+    from zero)."""
+    lo = np.array([p[2] for p in fit.scored.hyp.params], float)
+    hi = np.array([p[3] for p in fit.scored.hyp.params], float)
+    inside = bool(np.all(fit.values >= lo) and np.all(fit.values <= hi))
+    return inside and (not tested or passes_keep_rule(fit.values, fit.stderr))
+
+
+def significant(fit: OutputErrorFit) -> bool:
+    """Every fitted value OUTPUT_ERROR_MIN_T cluster-robust standard errors from zero."""
+    se = np.asarray(fit.stderr, float)
+    return bool(np.all(np.isfinite(se)) and np.all(se > 0) and np.all(np.abs(fit.values) >= OUTPUT_ERROR_MIN_T * se))
+
+
+def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
+    """[(Scored hypothesis, probe step (k,))] worth their own fit: every joint's
+    SCREEN_FAMILIES fitted on its training angle from the sensitivities of one replay per
+    parameter and group of :func:`joint_levels` (every joint of the group probed at once:
+    3 x 11 replays on humanoid38 instead of 3 x 38), those that remove SCREEN_GAIN of it with
+    a physical, significant value, best first, each Coulomb friction followed by the stiction
+    at its joint; at most MAX_CANDIDATES places."""
+    robot, exp, J = run.robot, run.exp, len(run.robot.joint_names)
+    hyps = {(h.family, h.joint): h for h in mechanical_hypotheses(robot)
+            if h.family in (*SCREEN_FAMILIES, "stiction") and not h.form and h.label not in run.tried}
+    steps, rows = probe_steps(run), window_rows(exp, SCREEN_EVERY)
+    base = pressure_driven_angles(exp, run.mods, base_mm, every=SCREEN_EVERY)[rows]      # (W, H, J)
+    r = exp.q[rows] - base
+    passed = []
+    for family in SCREEN_FAMILIES:
+        param = SCREEN_FAMILIES[family]
+        sens = np.full(base.shape, np.nan)
+        for level in joint_levels(robot):
+            terms = [(ATTRS[param], j, steps[param][j]) for j in level if (family, j) in hyps]
+            if terms:
+                q = pressure_driven_angles(exp, run.mods, with_replay_terms(base_mm, terms, J), every=SCREEN_EVERY)[rows]
+                for _, j, step in terms:
+                    sens[:, :, j] = (q[:, :, j] - base[:, :, j]) / step
+        fits = []
+        for j in range(J):
+            ok = np.all(np.isfinite(sens[:, :, j]), axis=1) & np.all(np.isfinite(r[:, :, j]), axis=1)
+            got = None if (family, j) not in hyps else gauss_newton_step(sens[ok, :, j, None], r[ok, :, j])
+            fits.append(None if got is None else OutputErrorFit(Scored(hyps[(family, j)], got[2]), *got))
+        # what a joint's mismatch gives this family anyway: the gains of its physical fits at
+        # every joint (an unphysical one counts as none), whose spread a true effect stands out of
+        gains = [f.train_gain if f is not None and physical(f, tested=False) else 0.0 for f in fits]
+        floor = max(SCREEN_GAIN, robust_ceiling(gains))
+        run.output_error_screen[family] = {"floor": floor, "gains": dict(zip(robot.joint_names, gains))}
+        passed += [f for f in fits if f is not None and f.train_gain >= floor and physical(f)]
+    passed.sort(key=lambda f: -f.train_gain)
+    out = []
+    for f in passed[:MAX_CANDIDATES]:
+        out.append((f.scored, f.values.copy()))
+        if f.scored.hyp.family == "coulomb_friction" and ("stiction", f.scored.hyp.joint) in hyps:
+            out.append((Scored(hyps[("stiction", f.scored.hyp.joint)], f.train_gain), np.repeat(f.values, 2)))
+    return out
+
+
+def search_output_error(run: DoctorRun, say) -> None:
+    """Up to MAX_ROUNDS rounds: fit every screened candidate by output error against the model
+    as it stands, judge the promising ones on the held-out angles, name the best
+    (:func:`named`); one effect per joint."""
+    say("fitting joint effects to the angles they replay (the torque balance does not predict them)")
+    body = fit_rigid_body(run.td, *run.base_extra) if run.base_extra else run.rfit
+    cands = screened(run, final_mech_mods(run, fit=body))
+    for _ in range(MAX_ROUNDS):
+        mm = final_mech_mods(run, fit=body)
+        base_t = pressure_driven_angles(run.exp, run.mods, mm, every=TRAIN_EVERY)
+        base_h = pressure_driven_angles(run.held, run.mods, mm)
+        named_joints = {f.scored.hyp.joint for f in run.findings if f.output_error}
+        fits = [fit_by_output_error(run, s, step, mm, base_t) for s, step in cands if s.hyp.joint not in named_joints]
+        fits = [f for f in fits if f is not None and f.train_gain >= MIN_TRAIN_GAIN and physical(f)
+                and significant(f)]
+        for f in fits:
+            judge_heldout(run, f, mm, base_h)
+        best = min((f for f in fits if f.ratio <= KEEP_RATIO), key=lambda f: f.ratio, default=None)
+        if best is None:
+            return
+        finding = named(run, best)
+        say(f"{finding.family} at {finding.where}: its joint's held-out angle NRMSE "
+            f"{best.before:.4g} -> {best.after:.4g} (output error)")
+        run.findings.append(finding)
+        run.tried.update(s.hyp.label for s, _ in cands if s.hyp.joint == best.scored.hyp.joint)
+
+
+def judge_heldout(run: DoctorRun, f: OutputErrorFit, mm: MechMods, base_h: np.ndarray) -> None:
+    """``f``'s joint's held-out angle NRMSE without and with it, and the scale ``heldout_scale``
+    (with its cluster-robust error) that the held-out angle itself would fit along ``f``'s
+    values: the same replay, read as a sensitivity."""
+    j, held = f.scored.hyp.joint, run.held
+    q = pressure_driven_angles(held, run.mods, with_replay_terms(mm, terms_of(f.scored.hyp, f.values), len(run.robot.joint_names)))
+    f.before, f.after = angle_nrmse(held, base_h, j), angle_nrmse(held, q, j)
+    rows = window_rows(held, 1)
+    A, r = (q[rows, j] - base_h[rows, j])[..., None], held.q[rows, j] - base_h[rows, j]
+    ok = np.all(np.isfinite(A), axis=(1, 2)) & np.all(np.isfinite(r), axis=1)
+    got = gauss_newton_step(A[ok], r[ok])
+    f.heldout_scale, f.heldout_scale_se = (np.nan, np.nan) if got is None else (float(got[0][0]), float(got[1][0]))
+
+
+def named(run: DoctorRun, fit: OutputErrorFit) -> Finding:
+    """The finding of an output-error fit: its parameters with their errors, judged by the
+    joint's angle (``Scored.judged_by``), its torque-balance alternatives none (that balance
+    is not evidence here)."""
+    s, h = fit.scored, fit.scored.hyp
+    s.judged_by = "its joint's angle replayed on held-out data"
+    params = {name: {"value": float(v), "stderr": float(e)} for (name, *_), v, e in zip(h.params, fit.values, fit.stderr)}
+    f = Finding(s, h.family, h.where, params, 1.0 - fit.ratio ** 2, [], replay_terms=terms_of(h, fit.values))
+    f.angle_replay = {"channel": f"q.{run.robot.joint_names[h.joint]}", "before": fit.before, "after": fit.after,
+                      "replay_horizon_s": HORIZON_S}
+    return f
+
+
+#: the share of its joint's held-out angle mean square a finding must remove in a bootstrap
+#: resample of the windows to count there (its inclusion probability): KEEP_RATIO's
+OUTPUT_ERROR_KEEP = 1.0 - KEEP_RATIO ** 2
+
+
+def locate_output_error(run: DoctorRun, f: Finding) -> None:
+    """An output-error finding's regime (where it removes most of its joint's training angle
+    error), windows (where its joint's held-out angle error is largest without it) and
+    inclusion probability (a block bootstrap of the held-out windows: the share of resamples in
+    which it still removes OUTPUT_ERROR_KEEP of the angle's mean square)."""
+    j = f.scored.hyp.joint
+    err = {}
+    for name, exp, every in (("train", run.exp, TRAIN_EVERY), ("held", run.held, 1)):
+        with_f = final_mech_mods(run)
+        without = final_mech_mods(run, without=f)
+        err[name] = [pressure_driven_angles(exp, run.mods, mm, every=every)[:, j] - exp.q[:, j]
+                     for mm in (without, with_f)]
+    before, after = (np.nan_to_num(e) for e in err["train"])
+    f.regime, _, _ = locate_energy(before ** 2 - after ** 2, joint_regimes(run.exp, j))
+    f.regimes = joint_regimes(run.held, j)
+    before, after = (np.nan_to_num(e) for e in err["held"])
+    f.windows = windows(run.held.t, np.abs(before))
+    rows = window_rows(run.held, 1)
+    rows = rows[np.all(rows < len(run.held.t), axis=1)]
+    f.inclusion = bootstrap_inclusion((before[rows] ** 2).sum(axis=1), (after[rows] ** 2).sum(axis=1), OUTPUT_ERROR_KEEP)

@@ -1,0 +1,114 @@
+"""Joint effects fitted to the angles they replay (identification/doctor/valve_arm/output_error.py):
+the Gauss-Newton step and its window-clustered error bars, and the search on arm2 with its rigid
+body held nominal as the doctor holds humanoid38's -- a true friction is named at its joint
+with its value, a null recording gets nothing."""
+import numpy as np
+import pytest
+
+from identification.doctor.valve_arm.output_error import KEEP_RATIO, gauss_newton_step
+
+
+def _windows(rng, W=150, H=20, theta=0.3, window_sd=1.0, row_sd=0.3):
+    """Sensitivities smooth within each window and a residual whose noise is mostly a
+    per-window level (a replay's error is one draw per window, not H)."""
+    t = np.linspace(0, 1, H)
+    A = (rng.normal(size=(W, 1)) + rng.normal(size=(W, 1)) * t[None])[..., None]       # (W, H, 1)
+    noise = rng.normal(0, window_sd, (W, 1)) * (1 + t[None]) + rng.normal(0, row_sd, (W, H))
+    return A, A[..., 0] * theta + noise
+
+
+def test_the_step_recovers_its_parameter_and_the_window_clusters_give_honest_error_bars():
+    rng = np.random.default_rng(0)
+    covered, naive_covered, n = 0, 0, 300
+    for _ in range(n):
+        A, r = _windows(rng)
+        theta, se, gain = gauss_newton_step(A, r)
+        covered += abs(theta[0] - 0.3) <= 2 * se[0]
+        # the error bar of H independent rows per window: too narrow for correlated rows
+        e = r - A[..., 0] * theta[0]
+        naive = np.sqrt(np.mean(e ** 2) / np.sum(A ** 2))
+        naive_covered += abs(theta[0] - 0.3) <= 2 * naive
+        assert 0.0 < gain < 1.0
+    assert 0.9 <= covered / n <= 0.99          # two standard errors: about 95 %
+    assert naive_covered / n < 0.8
+
+
+def test_the_step_refuses_sensitivities_that_span_fewer_directions_than_parameters():
+    rng = np.random.default_rng(1)
+    A, r = _windows(rng)
+    assert gauss_newton_step(np.concatenate([A, 2 * A], axis=2), r) is None
+    assert gauss_newton_step(np.zeros_like(A), r) is None
+
+
+def _held_nominal_run(effects, seed):
+    """arm2's doctor run up to the joint search on 20 s + 10 s recordings of the nominal arm
+    with ``effects``, its rigid body held nominal as the body check holds humanoid38's."""
+    from identification.doctor.valve_arm.diagnose import _calibrated_run
+    from identification.doctor.valve_arm.mechanics import fit_rigid_body, hold_nominal
+    from identification.doctor.valve_arm.search import search_pneumatic, start_torque_balance
+    from pneumatics.robot import load_robot
+    from scenarios._cases import _record
+
+    robot = load_robot("arm2")
+    recs = _record(robot, effects, seed, 20.0, 10.0)
+    run, _ = _calibrated_run(robot, [recs["main"]], [recs["heldout"]], lambda m: None)
+    for td in (run.td, run.td_h):
+        hold_nominal(td, "held nominal by the test, as humanoid38's body check holds it")
+    run.rfit = fit_rigid_body(run.td)
+    search_pneumatic(run, lambda m: None)
+    start_torque_balance(run)
+    return run
+
+
+@pytest.mark.parametrize("coulomb_nm", [0.06])
+def test_a_true_coulomb_friction_is_named_at_its_joint_with_its_value(coulomb_nm):
+    from identification.doctor.valve_arm.output_error import search_output_error
+    from pneumatics.effects.effect_set import EffectSet
+
+    run = _held_nominal_run(EffectSet(friction={"elbow": {"coulomb_nm": coulomb_nm}}), seed=31)
+    search_output_error(run, lambda m: None)
+    joint = [f for f in run.findings if f.output_error]
+    assert [f.where for f in joint] == [{"joint": "elbow"}]
+    (f,) = joint
+    assert f.family in ("coulomb_friction", "stiction")
+    assert f.params["coulomb_nm"]["value"] == pytest.approx(coulomb_nm, rel=0.3)
+    assert f.params["coulomb_nm"]["value"] >= 4 * f.params["coulomb_nm"]["stderr"]
+    a = f.angle_replay
+    assert a["channel"] == "q.elbow" and a["after"] <= KEEP_RATIO * a["before"]
+    assert f.replay_terms and f.replay_terms[0][:2] == ("coulomb_nm", run.robot.joint_names.index("elbow"))
+
+
+def test_a_null_recording_gets_no_joint_effect():
+    from identification.doctor.valve_arm.output_error import search_output_error
+    from pneumatics.effects.effect_set import EffectSet
+
+    run = _held_nominal_run(EffectSet(), seed=32)
+    search_output_error(run, lambda m: None)
+    assert not [f for f in run.findings if f.output_error]
+
+
+def test_the_whole_doctor_reports_a_replayed_friction_with_its_numbers(monkeypatch):
+    """The doctor run end to end on arm2 with the body check made to hold the rigid body
+    nominal: the friction found by output error goes through location, the coupled replays and
+    the report like any finding -- its inclusion from the held-out windows' angle error, the
+    joint's angle NRMSEs that named it, and the fitted model carrying it."""
+    from identification.doctor.valve_arm import angle_replay
+    from identification.doctor.valve_arm.diagnose import diagnose
+    from pneumatics.effects.effect_set import EffectSet
+    from pneumatics.robot import load_robot
+    from scenarios._cases import _record
+
+    monkeypatch.setattr(angle_replay, "BODY_WORSE_RATIO", 0.0)   # every calibration refused
+    robot = load_robot("arm2")
+    recs = _record(robot, EffectSet(friction={"elbow": {"coulomb_nm": 0.06}}), 31, 20.0, 10.0)
+    rep = diagnose(robot, [recs["main"]], [recs["heldout"]])
+    assert rep["diagnostics"]["rigid_body_kept_nominal"]
+    (f,) = [f for f in rep["findings"] if "joint" in f["where"]]
+    assert f["effect"] in ("coulomb_friction", "stiction") and f["where"] == {"joint": "elbow"}
+    assert 0.9 <= f["inclusion_probability"] <= 1.0
+    a = f["heldout_nrmse_angle_replay"]
+    assert a["channel"] == "q.elbow" and a["after"] <= KEEP_RATIO * a["before"]
+    assert "angle residual" in f["evidence"]
+    (e,) = [e for e in rep["_fitted"].effects if "joint" in e.where]      # what the user keeps
+    assert (e.family, e.where) == (f["effect"], {"joint": "elbow"})
+    assert e.value("coulomb_nm") == pytest.approx(f["parameters"]["coulomb_nm"]["value"])
