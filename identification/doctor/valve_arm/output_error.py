@@ -51,6 +51,7 @@ from .mechanics import fit_rigid_body
 from .regimes import joint_regimes
 from .rules import MAX_ROUNDS, DoctorRun, Finding, passes_keep_rule
 from .screening import Scored
+from .search import MECH_ATTRS
 
 #: the families fitted by output error (their first forms): the torque laws and the angle
 #: sensor's offset, whose replays need no placement (end stops are placed by the torque
@@ -59,9 +60,6 @@ from .screening import Scored
 #: stiction too (a Coulomb level and a breakaway excess).  Family -> its parameter
 SCREEN_FAMILIES = {"coulomb_friction": "coulomb_nm", "viscous_friction": "viscous_nm_s_per_rad",
                    "angle_sensor_offset": "offset_rad"}
-#: each parameter -> the MechMods attribute its replay sets (search.MECH_ATTRS' subset)
-ATTRS = {"coulomb_nm": "coulomb_nm", "breakaway_extra_nm": "stiction_extra_nm",
-         "viscous_nm_s_per_rad": "viscous_nm_s", "offset_rad": "angle_offset_rad"}
 #: the screen's probe: a torque of this share of the joint's rms actuator torque (a Coulomb
 #: level; over the joint's rms speed, a viscous coefficient), an angle offset of PROBE_OFFSET_RAD:
 #: small enough for the replay to answer linearly, large against the replay's round-off
@@ -94,14 +92,12 @@ MAX_CANDIDATES = 8
 class OutputErrorFit:
     """One candidate fitted by output error on its joint's angle."""
 
-    scored: object          # the torque balance's Scored hypothesis (its place, family, probe step)
+    scored: Scored          # the hypothesis fitted (its place and family)
     values: np.ndarray      # (k,) fitted parameters
     stderr: np.ndarray      # (k,) cluster-robust standard errors
     train_gain: float       # share of the joint's training angle mean square removed
     before: float = np.nan  # the joint's held-out angle NRMSE without it ...
     after: float = np.nan   # ... and with it
-    heldout_scale: float = np.nan     # the scale of ``values`` the held-out angle fits (1: the same effect)
-    heldout_scale_se: float = np.nan  # its cluster-robust standard error
 
     @property
     def ratio(self) -> float:
@@ -110,7 +106,7 @@ class OutputErrorFit:
 
 def terms_of(hyp, values) -> list:
     """[(MechMods attribute, joint, value)] of hypothesis ``hyp``'s parameters ``values``."""
-    return [(ATTRS[name], hyp.joint, float(v)) for (name, *_), v in zip(hyp.params, values)]
+    return [(MECH_ATTRS[name], hyp.joint, float(v)) for (name, *_), v in zip(hyp.params, values)]
 
 
 def window_rows(exp, every: int) -> np.ndarray:
@@ -221,7 +217,7 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
         param = SCREEN_FAMILIES[family]
         sens = np.full(base.shape, np.nan)
         for level in joint_levels(robot):
-            terms = [(ATTRS[param], j, steps[param][j]) for j in level if (family, j) in hyps]
+            terms = [(MECH_ATTRS[param], j, steps[param][j]) for j in level if (family, j) in hyps]
             if terms:
                 q = pressure_driven_angles(exp, run.mods, with_replay_terms(base_mm, terms, J), every=SCREEN_EVERY)[rows]
                 for _, j, step in terms:
@@ -274,17 +270,11 @@ def search_output_error(run: DoctorRun, say) -> None:
 
 
 def judge_heldout(run: DoctorRun, f: OutputErrorFit, mm: MechMods, base_h: np.ndarray) -> None:
-    """``f``'s joint's held-out angle NRMSE without and with it, and the scale ``heldout_scale``
-    (with its cluster-robust error) that the held-out angle itself would fit along ``f``'s
-    values: the same replay, read as a sensitivity."""
+    """``f``'s joint's held-out angle NRMSE without it (``base_h``: the held-out replay of
+    ``mm``) and with it."""
     j, held = f.scored.hyp.joint, run.held
     q = pressure_driven_angles(held, run.mods, with_replay_terms(mm, terms_of(f.scored.hyp, f.values), len(run.robot.joint_names)))
     f.before, f.after = angle_nrmse(held, base_h, j), angle_nrmse(held, q, j)
-    rows = window_rows(held, 1)
-    A, r = (q[rows, j] - base_h[rows, j])[..., None], held.q[rows, j] - base_h[rows, j]
-    ok = np.all(np.isfinite(A), axis=(1, 2)) & np.all(np.isfinite(r), axis=1)
-    got = gauss_newton_step(A[ok], r[ok])
-    f.heldout_scale, f.heldout_scale_se = (np.nan, np.nan) if got is None else (float(got[0][0]), float(got[1][0]))
 
 
 def named(run: DoctorRun, fit: OutputErrorFit) -> Finding:
@@ -311,12 +301,9 @@ def locate_output_error(run: DoctorRun, f: Finding) -> None:
     inclusion probability (a block bootstrap of the held-out windows: the share of resamples in
     which it still removes OUTPUT_ERROR_KEEP of the angle's mean square)."""
     j = f.scored.hyp.joint
-    err = {}
+    err, models = {}, (final_mech_mods(run, without=f), final_mech_mods(run))
     for name, exp, every in (("train", run.exp, TRAIN_EVERY), ("held", run.held, 1)):
-        with_f = final_mech_mods(run)
-        without = final_mech_mods(run, without=f)
-        err[name] = [pressure_driven_angles(exp, run.mods, mm, every=every)[:, j] - exp.q[:, j]
-                     for mm in (without, with_f)]
+        err[name] = [pressure_driven_angles(exp, run.mods, mm, every=every)[:, j] - exp.q[:, j] for mm in models]
     before, after = (np.nan_to_num(e) for e in err["train"])
     f.regime, _, _ = locate_energy(before ** 2 - after ** 2, joint_regimes(run.exp, j))
     f.regimes = joint_regimes(run.held, j)
