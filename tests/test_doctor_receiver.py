@@ -180,3 +180,21 @@ def test_a_receiver_fit_pays_only_with_a_pressure_switchs_cycle():
     assert not fit(2).pays  # a step, not a cycle
     assert fit(20, pulsation=0.52).pays  # a tie goes to the receiver
     assert not fit(20, pulsation=0.6).pays  # a steady pulsation predicts the held-out recording clearly better
+
+
+def test_a_start_clipped_to_a_bound_is_one_the_global_search_accepts():
+    """A saw-tooth start at the edge of the receiver's bounds (a band at its 10^5.2 Pa cap):
+    SciPy's differential_evolution rescales x0 to [0, 1], where the rounding of exactly the
+    upper bound gave 1 + 2e-16 and a ValueError; inside_bounds keeps the start inside."""
+    from scipy.optimize import differential_evolution
+
+    from identification.doctor.valve_arm.supply_receiver import (LOG10_BAND_PA, LOG10_DELIVERY_KG_S,
+                                                                 LOG10_VOLUME_M3, inside_bounds)
+
+    bounds = [LOG10_VOLUME_M3, LOG10_DELIVERY_KG_S, LOG10_BAND_PA, (0.0, 1.0), (0.0, 1.0), (0.0, 1.0)]
+    lo, hi = inside_bounds(bounds)
+    assert np.all(lo > np.array(bounds)[:, 0]) and np.all(hi < np.array(bounds)[:, 1])
+    assert np.allclose(hi, np.array(bounds)[:, 1], rtol=0, atol=1e-8)
+    for start in (hi, lo):
+        differential_evolution(lambda x: float(np.sum(x ** 2)), bounds, x0=start, maxiter=1, popsize=2,
+                               polish=False, seed=0)

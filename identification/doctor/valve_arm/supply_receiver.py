@@ -242,7 +242,7 @@ def sawtooth_start(tr: _Target, total_b: np.ndarray, rt: float, bounds: list, co
     draw = float(np.mean(total_b))
     if not (band > 0 and period and draw > 0):
         return None
-    lo, hi = np.array(bounds).T
+    lo, hi = inside_bounds(bounds)
     best, best_cost = None, np.inf
     for r in np.linspace(0.1, 0.9, 9):
         volume = draw * rt * (1.0 - r) * period / band
@@ -254,6 +254,16 @@ def sawtooth_start(tr: _Target, total_b: np.ndarray, rt: float, bounds: list, co
                 if c < best_cost:
                     best, best_cost = cand, c
     return best
+
+
+def inside_bounds(bounds: list) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) of ``bounds`` moved inside by 1e-9 of each range: SciPy's
+    differential_evolution rescales its start x0 to [0, 1] and refuses one its rounding puts
+    outside (a band clipped to its 10^5.2 Pa cap came out at 1 + 2e-16, and the doctor
+    stopped with "Some entries in x0 lay outside the specified bounds")."""
+    lo, hi = np.array(bounds, float).T
+    margin = 1e-9 * (hi - lo)
+    return lo + margin, hi - margin
 
 
 def dominant_period_s(x: np.ndarray, step_s: float, cycles_min: float = 3.0) -> float | None:
