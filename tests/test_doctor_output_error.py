@@ -78,6 +78,9 @@ def test_a_true_coulomb_friction_is_named_at_its_joint_with_its_value(coulomb_nm
     assert f.replay_terms and f.replay_terms[0][:2] == ("coulomb_nm", run.robot.joint_names.index("elbow"))
 
 
+# whole doctor searches of ~5-10 s each: slow for CI's 15 minutes; the named friction above
+# keeps the search in the default run
+@pytest.mark.slow
 def test_a_null_recording_gets_no_joint_effect():
     from identification.doctor.valve_arm.output_error import search_output_error
     from pneumatics.effects.effect_set import EffectSet
@@ -87,6 +90,7 @@ def test_a_null_recording_gets_no_joint_effect():
     assert not [f for f in run.findings if f.output_error]
 
 
+@pytest.mark.slow
 def test_the_whole_doctor_reports_a_replayed_friction_with_its_numbers(monkeypatch):
     """The doctor run end to end on arm2 with the body check made to hold the rigid body
     nominal: the friction found by output error goes through location, the coupled replays and
