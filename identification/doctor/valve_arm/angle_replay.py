@@ -146,10 +146,9 @@ def with_replay_terms(mm: MechMods, terms, n_joints: int) -> MechMods:
     """A copy of ``mm`` with ``terms`` [(MechMods attribute, joint, value)] added: the torques
     and angle offsets of the output-error findings (output_error.py), or a candidate's."""
     out = replace(mm)
-    for attr, j, v in terms:
-        arr = np.zeros(n_joints) if getattr(out, attr) is None else getattr(out, attr).copy()
-        arr[j] += v
-        setattr(out, attr, arr)
+    for attr in {attr for attr, _, _ in terms if getattr(mm, attr) is not None}:
+        setattr(out, attr, getattr(mm, attr).copy())     # ``mm``'s own arrays stay as they are
+    out.add(terms, n_joints)
     return out
 
 

@@ -61,14 +61,20 @@ class MechMods:
                 m.damping_scale[where] = float(v)
             elif kind == "armature_scale":
                 m.armature_scale[where] = float(v)
-        for (attr, j), v in zip(extra_terms, fit.values[len(fit.values) - len(extra_terms):]):
-            if attr is None:  # a term acting on the chambers (a pressure-sensor offset), not the body
-                continue
-            arr = getattr(m, attr)
-            arr = np.zeros(J) if arr is None else arr
-            arr[j] += v  # terms of several findings at one joint add up
-            setattr(m, attr, arr)
+        m.add([(attr, j, v) for (attr, j), v in zip(extra_terms, fit.values[len(fit.values) - len(extra_terms):])], J)
         return m
+
+    def add(self, terms, n_joints: int) -> None:
+        """Add ``terms`` [(attribute, joint, value)] in place; terms of several findings at one
+        joint add up, and an attribute of None (a term acting on the chambers, a pressure-sensor
+        offset) is not the body's."""
+        for attr, j, v in terms:
+            if attr is None:
+                continue
+            arr = getattr(self, attr)
+            arr = np.zeros(n_joints) if arr is None else arr
+            arr[j] += v
+            setattr(self, attr, arr)
 
     def model(self, base: mujoco.MjModel) -> mujoco.MjModel:
         m = copy.copy(base)
