@@ -31,6 +31,17 @@ def test_only_torque_balance_findings_that_worsen_their_channel_are_picked_worst
     assert worsening(run) == [stop, replayed, offset]
 
 
+def test_an_output_error_finding_may_not_leave_its_channel_worse_at_all():
+    """Where the rigid body was held nominal the coupled replay is the only check of a joint
+    effect on the path from the commands: no margin (humanoid38's false Coulomb frictions, 0.8-4 %
+    worse), while the torque balance's findings keep the chambers' 10 %."""
+    slightly = _finding(0.0600, 0.0605, kept=False, output_error=True)
+    tie = _finding(0.0600, 0.0600, kept=False, output_error=True)
+    balance = _finding(0.0600, 0.0605)
+    run = SimpleNamespace(findings=[slightly, tie, balance], kept_mech=[balance.scored.hyp], refine=[])
+    assert worsening(run) == [slightly]
+
+
 # a whole doctor's run, slow for CI's 15 minutes;
 # the withdrawal rule itself is tested above
 @pytest.mark.slow

@@ -150,7 +150,7 @@ def _calibrated_run(robot: Robot, recordings, holdouts, say) -> tuple[DoctorRun,
                     sigma=sigma, nominal=nominal, mods=mods, cfit=cfit, td=td, td_h=td_h, rfit=rfit,
                     body_check=body_check)
     say("a twin of the recordings from the calibrated chambers (each chamber's flexible-correction floor)")
-    run.twin_gains = twin_gains(exp, held, mods, sigma, block_samples(held))
+    run.twin_gains, run.twin_supply_in_time = twin_gains(exp, held, mods, sigma, block_samples(held))
     return run, held_recs
 
 

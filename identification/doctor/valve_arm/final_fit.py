@@ -87,14 +87,25 @@ def drop_torque_terms(run: DoctorRun, gone: list) -> None:
 #: worsened its channel by more than 2 %, save one pneumatic (+34 %, a line named valve lag);
 #: pneumasim's own null seed 1042 got an end stop that made the elbow's angle 7 times worse.
 WORSE_RATIO = 1.1
+#: ... and one fitted by output error (where the rigid body was held nominal) must leave its
+#: best channel no worse at all: its fit and its judge are replays driven by the measured
+#: pressures, which the torque balance's word does not back there, and the coupled replay is
+#: the one check of it on the path from the commands.  Humanoid38's fresh run of 2026-12-02
+#: (`b03fad1`, looked at after it was reported): a false Coulomb friction at right_hip_roll in
+#: three cases, 11-19 % better in those replays, 0.8-4 % worse on its best coupled channel; the
+#: true viscous frictions 52-88 % better there
+OUTPUT_ERROR_WORSE_RATIO = 1.0
 
 
 def worsening(run: DoctorRun) -> list:
     """The torque-balance findings (end stops, friction, angle offsets; a pressure offset the
     replays found is theirs) and those fitted by output error whose held-out channel got worse
     in the coupled replay (``f.nrmse`` as diagnose._prove set it), the worst first."""
+    def limit(f):
+        return OUTPUT_ERROR_WORSE_RATIO if f.output_error else WORSE_RATIO
+
     out = [f for f in run.findings if (f.scored.hyp in run.kept_mech and f.scored.hyp not in run.refine or f.output_error)
-           and f.nrmse and f.nrmse["after"] > WORSE_RATIO * f.nrmse["before"]]
+           and f.nrmse and f.nrmse["after"] > limit(f) * f.nrmse["before"]]
     return sorted(out, key=lambda f: -f.nrmse["after"] / max(f.nrmse["before"], 1e-300))
 
 

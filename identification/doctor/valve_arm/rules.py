@@ -148,6 +148,9 @@ class DoctorRun:
     twin_gains: dict = field(default_factory=dict)
     """{(actuator, chamber): its flexible correction's gain on the calibrated model's twin of the
     recordings} (twin.twin_gains): each chamber's floor in flexible.paying"""
+    twin_supply_in_time: object = None
+    """the supply-in-time check on that twin (a supply_time.SupplyInTime; None: none made):
+    the floor of flex_check's supply entry"""
 
     @property
     def n_chambers(self) -> int:

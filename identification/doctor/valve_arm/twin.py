@@ -14,7 +14,8 @@ calibrated chamber model's replays, restarted every second from the measured pre
 driven by the measured commands and motion, sampled as the DAQ samples, with the sensors'
 noise added; its flexible corrections find only what the sampling and the noise make.  A
 chamber of the real recording counts as paying only TWIN_MARGIN above its twin's gain
-(flexible.paying).  This is a parametric bootstrap of the correction's null distribution, one
+(flexible.paying), and the supply's change in time only as much above its twin's
+(supply_time.SUPPLY_TIME_TWIN_MARGIN).  This is a parametric bootstrap of the correction's null distribution, one
 draw (Efron & Tibshirani, *An Introduction to the Bootstrap*, Chapman & Hall 1993, ch. 6).
 """
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy as np
 from .data import Experiment, with_pressures
 from .flexible import corrections
 from .pneumatic import PneumaticMods, Windows, replay
+from .supply_time import SupplyInTime, supply_in_time
 
 #: the twin's replays restart from the measured pressures this often [s] (as the published
 #: samples' concealment check replays their recordings: each truth.json's "concealment")
@@ -62,10 +64,13 @@ def twin(exp: Experiment, mods: PneumaticMods, sigma_pa: float, rng: np.random.G
     return with_pressures(exp, p)
 
 
-def twin_gains(exp: Experiment, held: Experiment, mods: PneumaticMods, sigma_pa: float, block: int) -> dict:
-    """{(actuator, chamber): the best group's held-out gain of the chamber's flexible
-    correction on the twins of ``exp`` (fitted) and ``held`` (judged) under ``mods``}."""
+def twin_gains(exp: Experiment, held: Experiment, mods: PneumaticMods, sigma_pa: float,
+               block: int) -> tuple[dict, SupplyInTime | None]:
+    """({(actuator, chamber): the best group's held-out gain of the chamber's flexible
+    correction}, the supply-in-time check (supply_time.supply_in_time)) on the twins of ``exp``
+    (fitted) and ``held`` (judged) under ``mods``."""
     rng = np.random.default_rng(TWIN_SEED)
     exp_t, held_t = twin(exp, mods, sigma_pa, rng), twin(held, mods, sigma_pa, rng)
-    corrs, _, _ = corrections(exp_t, held_t, mods, block)
-    return {(c.where["actuator"], c.where["chamber"]): c.best_group_gain for c in corrs if "supply" not in c.where}
+    corrs, tr, ho = corrections(exp_t, held_t, mods, block)
+    gains = {(c.where["actuator"], c.where["chamber"]): c.best_group_gain for c in corrs if "supply" not in c.where}
+    return gains, supply_in_time(tr, ho, exp.rate_hz, held.rate_hz)
