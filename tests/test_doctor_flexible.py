@@ -363,7 +363,7 @@ def test_the_twin_of_the_null_sample_follows_it_and_pays_nowhere(null_calibrated
     pooled = pool([exp, held])
     np.testing.assert_allclose(with_pressures(pooled, pooled.p).p_at_t, pooled.p_at_t, rtol=1e-9)
     assert model_pressures(pooled, mods)[len(exp.t)].tolist() == held.p[0].tolist()  # restarted at the join
-    gains = twin_gains(exp, held, mods, sigma, 10)
+    gains, _ = twin_gains(exp, held, mods, sigma, 10)
     assert set(gains) == set(robot.chamber_names)
     assert max(gains.values()) < FLEX_FLOOR - TWIN_MARGIN
 
