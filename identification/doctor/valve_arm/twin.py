@@ -14,9 +14,9 @@ calibrated chamber model's replays, restarted every second from the measured pre
 driven by the measured commands and motion, sampled as the DAQ samples, with the sensors'
 noise added; its flexible corrections find only what the sampling and the noise make.  A
 chamber of the real recording counts as paying only TWIN_MARGIN above its twin's gain
-(flexible.paying), and the supply's change in time only as much above its twin's
-(supply_time.SUPPLY_TIME_TWIN_MARGIN).  This is a parametric bootstrap of the correction's null distribution, one
-draw (Efron & Tibshirani, *An Introduction to the Bootstrap*, Chapman & Hall 1993, ch. 6).
+(flexible.paying), and the supply's change in time only SUPPLY_TIME_TWIN_MARGIN above its
+twin's (supply_time).  This is a parametric bootstrap of the correction's null distribution,
+one draw (Efron & Tibshirani, *An Introduction to the Bootstrap*, Chapman & Hall 1993, ch. 6).
 """
 from __future__ import annotations
 
