@@ -36,6 +36,14 @@ def null_calibrated():
 
 
 @pytest.fixture(scope="module")
+def null_twin(null_calibrated):
+    """twin.twin_gains on the null sample: each chamber's twin gain and the supply-in-time check."""
+    from identification.doctor.valve_arm.twin import twin_gains
+    robot, exp, held, mods = null_calibrated
+    return twin_gains(exp, held, mods, pressure_sigma(exp), 10)
+
+
+@pytest.fixture(scope="module")
 def null_blocks(null_calibrated):
     """Block means (0.1 s) of the null sample's recordings under its calibrated chamber model."""
     robot, exp, held, mods = null_calibrated
@@ -165,16 +173,15 @@ def test_one_block_of_outsized_supply_sensitivity_does_not_hide_a_supply_step(nu
 
 
 @needs_samples
-def test_a_supply_in_time_pays_only_above_its_twin(null_calibrated, null_blocks):
+def test_a_supply_in_time_pays_only_above_its_twin(null_calibrated, null_blocks, null_twin):
     """The supply's change in time is judged against the calibrated model's twin of the
     recordings (module twin): on arm2's published null the twin finds no time course (the fixed
     floor decides there, as before the twin), and a gain no more than its twin's plus
     SUPPLY_TIME_TWIN_MARGIN does not pay (humanoid38's unresolved transients, shared in time)."""
     import dataclasses
     from identification.doctor.valve_arm.supply_time import SUPPLY_TIME_TWIN_MARGIN
-    from identification.doctor.valve_arm.twin import twin_gains
     robot, exp, held, mods = null_calibrated
-    _, twin = twin_gains(exp, held, mods, pressure_sigma(exp), 10)
+    _, twin = null_twin
     assert max(twin.train_gain, twin.heldout_gain) < SUPPLY_TIME_FLOOR - SUPPLY_TIME_TWIN_MARGIN
     _, _, _, tr, ho = null_blocks
 
@@ -344,14 +351,14 @@ def test_a_chamber_paying_no_more_than_on_its_twin_is_not_flagged():
 
 
 @needs_samples
-def test_the_twin_of_the_null_sample_follows_it_and_pays_nowhere(null_calibrated):
+def test_the_twin_of_the_null_sample_follows_it_and_pays_nowhere(null_calibrated, null_twin):
     """The calibrated chamber model replayed as the twin (restarted from the measured pressures
     every TWIN_RESTART_S) stays within the sensor noise's order of the null sample's pressures,
     and the flexible corrections find nothing on it: the floor a twin sets on a recording
     whose model lacks nothing is the robot's own (FLEX_FLOOR)."""
     from identification.doctor.valve_arm.data import pool, with_pressures
     from identification.doctor.valve_arm.flexible import TWIN_MARGIN
-    from identification.doctor.valve_arm.twin import TWIN_RESTART_S, model_pressures, twin_gains
+    from identification.doctor.valve_arm.twin import TWIN_RESTART_S, model_pressures
 
     robot, exp, held, mods = null_calibrated
     sigma = pressure_sigma(exp)
@@ -363,7 +370,7 @@ def test_the_twin_of_the_null_sample_follows_it_and_pays_nowhere(null_calibrated
     pooled = pool([exp, held])
     np.testing.assert_allclose(with_pressures(pooled, pooled.p).p_at_t, pooled.p_at_t, rtol=1e-9)
     assert model_pressures(pooled, mods)[len(exp.t)].tolist() == held.p[0].tolist()  # restarted at the join
-    gains, _ = twin_gains(exp, held, mods, sigma, 10)
+    gains, _ = null_twin
     assert set(gains) == set(robot.chamber_names)
     assert max(gains.values()) < FLEX_FLOOR - TWIN_MARGIN
 

@@ -90,10 +90,10 @@ def flexible_unexplained(run: DoctorRun) -> tuple[list, dict]:
         diagnostics["supply"][key] = {"train_gain": found.train_gain, "heldout_gain": found.heldout_gain}
         if found.frequency_hz is not None:
             diagnostics["supply"][key]["frequency_hz"] = found.frequency_hz
-        if key == "in_time" and run.twin_supply_in_time is not None:
-            twin = run.twin_supply_in_time
+        twin = run.twin_supply_in_time if key == "in_time" else None  # the ripple has no twin
+        if twin is not None:
             diagnostics["supply"][key].update(twin_train_gain=twin.train_gain, twin_heldout_gain=twin.heldout_gain)
-        if found.pays_above(run.twin_supply_in_time if key == "in_time" else None):
+        if found.pays_above(twin):
             found_paying.append((found, t_found))
     if found_paying and not any("supply" in u["where"] for u in out) \
             and not any(f.family == "supply_droop" for f in run.findings):

@@ -17,6 +17,7 @@ from pneumatics.robot import Robot
 from .data import Experiment
 from .pneumatic import PneumaticMods, Windows
 from .screening import Scored
+from .supply_time import SupplyInTime
 
 HORIZON = 30               # samples per pressure-replay window (0.3 s at 100 Hz)
 HOLDOUT_SHARE = 0.3        # the end of each recording held out when no held-out files are given
@@ -148,9 +149,9 @@ class DoctorRun:
     twin_gains: dict = field(default_factory=dict)
     """{(actuator, chamber): its flexible correction's gain on the calibrated model's twin of the
     recordings} (twin.twin_gains): each chamber's floor in flexible.paying"""
-    twin_supply_in_time: object = None
-    """the supply-in-time check on that twin (a supply_time.SupplyInTime; None: none made):
-    the floor of flex_check's supply entry"""
+    twin_supply_in_time: SupplyInTime | None = None
+    """the supply-in-time check on that twin (None: none made): the floor of flex_check's
+    supply entry"""
 
     @property
     def n_chambers(self) -> int:
