@@ -142,14 +142,40 @@ def final_mech_mods(run: DoctorRun, without: Finding | None = None, fit=None) ->
                              len(robot.joint_names))
 
 
+#: the replay term of a pressure-sensor offset fitted by output error: (CHAMBER_TERM, chamber
+#: index, offset [Pa]) acts on the measured pressures (the chamber model's sensor offsets), not
+#: on the rigid body
+CHAMBER_TERM = "sensor_offset_pa"
+
+
 def with_replay_terms(mm: MechMods, terms, n_joints: int) -> MechMods:
     """A copy of ``mm`` with ``terms`` [(MechMods attribute, joint, value)] added: the torques
-    and angle offsets of the output-error findings (output_error.py), or a candidate's."""
+    and angle offsets of the output-error findings (output_error.py), or a candidate's; a
+    CHAMBER_TERM is not the body's (:func:`with_chamber_terms`)."""
+    terms = [t for t in terms if t[0] != CHAMBER_TERM]
     out = replace(mm)
     for attr in {attr for attr, _, _ in terms if getattr(mm, attr) is not None}:
         setattr(out, attr, getattr(mm, attr).copy())     # ``mm``'s own arrays stay as they are
     out.add(terms, n_joints)
     return out
+
+
+def with_chamber_terms(pmods: PneumaticMods, terms) -> PneumaticMods:
+    """``pmods`` with the CHAMBER_TERMs of ``terms`` added to its sensor offsets (the pressure
+    the cylinder pushes with is the reading less the offset)."""
+    offsets = [(c, v) for attr, c, v in terms if attr == CHAMBER_TERM]
+    if not offsets:
+        return pmods
+    arr = (np.zeros(pmods.supply_scale.size) if pmods.sensor_offset_pa is None
+           else pmods.sensor_offset_pa.copy())
+    for c, v in offsets:
+        arr[c] += v
+    return pmods.copy(sensor_offset_pa=arr)
+
+
+def without_chamber_terms(pmods: PneumaticMods, terms) -> PneumaticMods:
+    """``pmods`` with the CHAMBER_TERMs of ``terms`` taken back out (a withdrawn finding's)."""
+    return with_chamber_terms(pmods, [(attr, c, -v) for attr, c, v in terms if attr == CHAMBER_TERM])
 
 
 def judged(run: DoctorRun) -> list[tuple[Finding, int, PneumaticMods, MechMods]]:

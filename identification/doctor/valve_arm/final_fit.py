@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .angle_replay import HORIZON_S, angle_judgements, refused
+from .angle_replay import HORIZON_S, angle_judgements, refused, without_chamber_terms
 from .calibrate import chamber_names as calibration_names
 from .calibrate import fit_chambers
 from .data import with_true_lengths
@@ -123,6 +123,9 @@ def withdraw_worsening(run: DoctorRun, f, why: str | None = None) -> None:
         return
     run.withdrawn.append({"effect": f.family, "where": f.where, "final_parameters": dict(f.params), "why": why})
     run.findings.remove(f)
+    if f.output_error and f.family == "pressure_sensor_offset":  # its offset left the chamber model
+        run.mods = without_chamber_terms(run.mods, f.replay_terms)
+        run.td, run.td_h = corrected_torque_data(run, run.mods)
     drop_torque_terms(run, [f.scored.hyp])
 
 

@@ -73,14 +73,7 @@ def offset_place(run: DoctorRun, finding: Finding, scored: list) -> Finding:
     form = [p[0] for p in finding.scored.hyp.params]  # the constant or the drifting offset
     cands = {s.hyp.where["chamber"]: s for s in scored if s.hyp.family == "pressure_sensor_offset"
              and s.hyp.where["actuator"] == act and [p[0] for p in s.hyp.params] == form}
-    chamber, alternatives = offset_chamber(run, act, drifting=len(form) > 1), []
-    if chamber is None and len(cands) > 1:
-        gains, departure = fixed_offset_evidence(run, cands)
-        by_gain, nearest = max(gains, key=gains.get), min(departure, key=departure.get)
-        clear = all(d >= DEPARTURE_RATIO * departure[nearest] for ch, d in departure.items() if ch != nearest)
-        chamber = nearest if clear else by_gain
-        if by_gain != nearest or any(g > gains[chamber] - OFFSET_MARGIN for ch, g in gains.items() if ch != chamber):
-            alternatives = sorted(cands)
+    chamber, alternatives = offset_chamber_choice(run, act, cands, drifting=len(form) > 1)
     primary = cands.get(chamber or "a", finding.scored)
     where = {"actuator": act} if chamber is None else {"actuator": act, "chamber": chamber}
     f = Finding(primary, primary.hyp.family, where, finding_params(primary), primary.heldout_gain,
@@ -91,6 +84,23 @@ def offset_place(run: DoctorRun, finding: Finding, scored: list) -> Finding:
                 f.params[f"offset_pa_if_chamber_{ch}"] = finding_params(s)["offset_pa"]
         f.alternative_places = [{"actuator": act, "chamber": ch} for ch in sorted(cands)]
     return f
+
+
+def offset_chamber_choice(run: DoctorRun, act: str, cands: dict, drifting: bool = False) -> tuple:
+    """(the chamber of actuator ``act`` named, or None; the chambers left as alternative places)
+    for a force error of its cylinder that a sensor offset on either chamber explains
+    (``cands``: chamber -> a Scored offset term whose ``fit.values`` end with that chamber's
+    offset): :func:`offset_chamber` first, then :func:`fixed_offset_evidence` (offset_place's
+    rules)."""
+    chamber, alternatives = offset_chamber(run, act, drifting=drifting), []
+    if chamber is None and len(cands) > 1:
+        gains, departure = fixed_offset_evidence(run, cands)
+        by_gain, nearest = max(gains, key=gains.get), min(departure, key=departure.get)
+        clear = all(d >= DEPARTURE_RATIO * departure[nearest] for ch, d in departure.items() if ch != nearest)
+        chamber = nearest if clear else by_gain
+        if by_gain != nearest or any(g > gains[chamber] - OFFSET_MARGIN for ch, g in gains.items() if ch != chamber):
+            alternatives = sorted(cands)
+    return chamber, alternatives
 
 
 def calibration_departure(mods: PneumaticMods, chambers=None) -> float:
