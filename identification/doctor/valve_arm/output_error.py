@@ -107,8 +107,10 @@ OUTPUT_ERROR_MIN_T = 8.0
 #: ... but a pressure-sensor offset's stands the keep rule's MIN_T from zero: a constant force is
 #: no damping that holds a falling replay closer.  On humanoid38's development recordings of
 #: 2026-12-03 (seeds 151639044 and 151639058-061, looked at after their fresh run) the true
-#: 3.9 kPa offset at left_elbow.a was fitted at 2.97 kPa, 4.1 errors (held-out ratio 0.80,
-#: training gain 0.25); the nulls' offsets of 4 errors or more removed under MIN_TRAIN_GAIN of
+#: 3.9 kPa offset at left_elbow.a was fitted from a 1 kPa step at 2.97 kPa, 4.1 errors (held-out
+#: ratio 0.80, training gain 0.25), from a 4 kPa step at 3.55 kPa, 6.0 errors -- yet with
+#: PROBE_OFFSET_PA the screen's own fit of it still fell short of MIN_T and it was missed; the
+#: nulls' offsets of 4 errors or more removed under MIN_TRAIN_GAIN of
 #: their joint's training angle error (the jaw's, 0.11-0.18) or replayed its held-out angle
 #: worse (right_hip_roll, 98 errors, ratio 1.03)
 OFFSET_MIN_T = MIN_T
