@@ -78,6 +78,13 @@ def test_a_true_coulomb_friction_is_named_at_its_joint_with_its_value(coulomb_nm
     a = f.angle_replay
     assert a["channel"] == "q.elbow" and a["after"] <= KEEP_RATIO * a["before"]
     assert f.replay_terms and f.replay_terms[0][:2] == ("coulomb_nm", run.robot.joint_names.index("elbow"))
+    # the report keeps every candidate's fit and verdict: the named one, and why each other was not
+    records = run.output_error_candidates
+    named = [r for r in records if r["verdict"] == "named"]
+    assert [r["hypothesis"] for r in named] == [f.scored.hyp.label]
+    assert named[0]["heldout_nrmse"] == {"before": pytest.approx(a["before"]), "after": pytest.approx(a["after"])}
+    assert named[0]["t"][0] >= 8 and named[0]["train_gain"] >= 0.2
+    assert all(r["verdict"].startswith(("named", "refused: ", "passed, ")) for r in records)
 
 
 def test_a_pressure_sensor_offset_is_named_by_the_force_it_fakes_and_taken_out_of_the_readings():

@@ -211,6 +211,7 @@ def _report(run: DoctorRun, located: Located, replays: dict, calibrated: dict, f
             "rigid_body_kept_nominal": dict(td.fixed or {}),
             "rigid_body_calibration_replay": run.body_check,
             "output_error_screen": run.output_error_screen,
+            "output_error_candidates": run.output_error_candidates,
             **tests,
             "ljung_box_q_heldout_pressure": {k: v["after"]["q"] for k, v in tests["ljung_box_heldout_pressure"].items()},
             "train_seconds": float(run.exp.t[-1] - run.exp.t[0]),

@@ -321,7 +321,7 @@ def search_output_error(run: DoctorRun, say) -> None:
     say("fitting joint effects to the angles they replay (the torque balance does not predict them)")
     body = fit_rigid_body(run.td, *run.base_extra) if run.base_extra else run.rfit
     cands = screened(run, final_mech_mods(run, fit=body))
-    for _ in range(MAX_ROUNDS):
+    for rnd in range(MAX_ROUNDS):
         mm = final_mech_mods(run, fit=body)
         base_t = pressure_driven_angles(run.exp, run.mods, mm, every=TRAIN_EVERY)
         base_h = pressure_driven_angles(run.held, run.mods, mm)
@@ -332,6 +332,7 @@ def search_output_error(run: DoctorRun, say) -> None:
         for f in fits:
             judge_heldout(run, f, mm, base_h)
         best = min((f for f in fits if f.ratio <= KEEP_RATIO), key=lambda f: f.ratio, default=None)
+        run.output_error_candidates += [candidate_record(run, f, rnd, best) for f in every]
         if best is None:
             return
         where, places = best.scored.hyp.where, []
@@ -346,6 +347,41 @@ def search_output_error(run: DoctorRun, say) -> None:
         run.tried.update(s.hyp.label for s, _ in cands if s.hyp.joint == best.scored.hyp.joint)
         if finding.family == "pressure_sensor_offset":
             take_offset(run, finding)
+
+
+def refusal(f: OutputErrorFit) -> str:
+    """Why candidate ``f`` was not named, in the rules' own terms ('' when every rule passed)."""
+    t = OFFSET_MIN_T if f.scored.hyp.family == "pressure_sensor_offset" else OUTPUT_ERROR_MIN_T
+    if f.train_gain < MIN_TRAIN_GAIN:
+        return f"removes {f.train_gain:.2f} of its joint's training angle error, under {MIN_TRAIN_GAIN}"
+    if not physical(f, tested=False):
+        return "a value outside its physical bounds"
+    if not significant(f):
+        return f"a value under {t:g} cluster-robust standard errors from zero"
+    if not f.ratio <= KEEP_RATIO:
+        return f"its joint's held-out angle NRMSE ratio {f.ratio:.3f} over {KEEP_RATIO}"
+    return ""
+
+
+def candidate_record(run: DoctorRun, f: OutputErrorFit, round_: int, best: OutputErrorFit | None) -> dict:
+    """What the report keeps of one output-error candidate of round ``round_``: its fit, its
+    held-out judgement where it got one, and its verdict (named, beaten by the round's best at
+    a lower held-out ratio, or the rule it failed) -- the answer to 'why was nothing named at
+    this joint?'."""
+    why = refusal(f)
+    verdict = ("named" if f is best else f"refused: {why}" if why
+               else f"passed, the round's best was {best.scored.hyp.label}")
+    se = np.asarray(f.stderr, float)
+    return {"hypothesis": f.scored.hyp.label, "round": round_ + 1, "joint": run.robot.joint_names[f.scored.hyp.joint],
+            "values": [float(v) for v in f.values], "stderr": [float(e) for e in se],
+            "t": [float(v / e) if e > 0 else None for v, e in zip(f.values, se)],
+            "train_gain": float(f.train_gain),
+            "heldout_nrmse": {"before": _or_none(f.before), "after": _or_none(f.after)},
+            "verdict": verdict}
+
+
+def _or_none(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
 
 
 def placed_offset(run: DoctorRun, best: OutputErrorFit, fits: list) -> tuple:
