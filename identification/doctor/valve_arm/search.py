@@ -40,12 +40,12 @@ from .supply_receiver import receiver_candidate
 from .torque_judge import heldout_torque, mech_block, outside_without_finding, stacked_regressors
 from .weak_supply import note_supply_candidates
 from .screening import (
+    CandidateFits,
     Scored,
     chamber_rms,
     channel_gains,
     dead_volume_index,
     finding_params,
-    fit_pneumatic,
     score_mechanical,
     score_pneumatic,
     stack_terms,
@@ -58,6 +58,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
     promising ones, keep the best that pays on held-out data (greedy)."""
     exp, held, win_h = run.exp, run.held, run.win_h
     retry_receiver = search_receiver(run, say)
+    fits = CandidateFits()
     for rnd in range(MAX_ROUNDS):
         say(f"scoring pneumatic hypotheses (round {rnd + 1})")
         hyps = [h for h in pneumatic_hypotheses(run.robot) if h.label not in run.tried]
@@ -75,8 +76,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
         if not top:
             break
         for s in top:
-            say(f"fitting {s.hyp.label}")
-            fit_pneumatic(s, exp, run.fit_win, run.mods, run.sigma)
+            fits.fit(s, exp, run.fit_win, run.mods, run.sigma, say)
             # where the fit refitted its own cylinders alone, the others replay as before
             own = s.refitted
             s.heldout_before, s.heldout_after = base_h, chamber_rms(held, win_h, s.mods, own, base_h)
