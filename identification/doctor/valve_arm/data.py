@@ -56,6 +56,9 @@ class Experiment:
     q_light: np.ndarray = field(default=None)       # (N, J) angles lightly smoothed (residuals at half the noise)
     qd_light: np.ndarray = field(default=None)      # (N, J) their velocities
     q_lam: np.ndarray = field(default=None)         # (R, J) each pooled recording's angle-spline lambda
+    #: each chamber's share of the supply flow at the measured pressures, kept between replays
+    #: (supply_shares.SupplyShares; made on first use; a copy's own data are told apart by identity)
+    supply_shares: object = field(default=None, repr=False, compare=False)
 
     def like_q_s(self, x: np.ndarray, j: int) -> np.ndarray:
         """x (N,) smoothed as joint j's angle was (its spline's lambda, per pooled recording).

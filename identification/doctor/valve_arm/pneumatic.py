@@ -344,9 +344,10 @@ class ChamberModel:
                 acc[:] = 0
         return out
 
-    def areas(self, u):
-        """(supply, exhaust) valve areas (W, C) [m^2] at commands u (W, C) [V]: :func:`model_areas`."""
-        return model_areas(self.tab, self.mods, u)
+    def areas(self, u, cs=slice(None)):
+        """(supply, exhaust) valve areas (W, C) [m^2] at commands u (W, C) [V] of the chambers
+        ``cs`` (default all): :func:`model_areas`."""
+        return model_areas(self.tab, self.mods, u, cs)
 
     def kernel_glob(self) -> np.ndarray:
         """The compiled step's gas and plant constants (pneumatics.kernel.pack_glob's array)."""
@@ -486,13 +487,13 @@ def initial_pressure(exp: Experiment, k0, mods: PneumaticMods):
     return p0
 
 
-def model_areas(tab, mods: PneumaticMods, u: np.ndarray):
-    """(supply, exhaust) valve areas [m^2] at commands u (..., C) [V] under the chamber model:
-    the valve map (the table's rows broadcast over the leading axes), the calibration's scales
-    and the valve leaks."""
-    a_s, a_e = valve_areas(u, tab.valve)
-    leak_s, leak_e = mods.valve_leak_areas(u, tab.valve[:, 0])
-    return a_s * mods.supply_scale + leak_s, a_e * mods.exhaust_scale + leak_e
+def model_areas(tab, mods: PneumaticMods, u: np.ndarray, cs=slice(None)):
+    """(supply, exhaust) valve areas [m^2] at commands u (..., C) [V] of the chambers ``cs``
+    (default all) under the chamber model: the valve map (the table's rows broadcast over the
+    leading axes), the calibration's scales and the valve leaks."""
+    a_s, a_e = valve_areas(u, tab.valve[cs])
+    leak_s, leak_e = mods.valve_leak_areas(u, tab.valve[cs, 0], cs)
+    return a_s * mods.supply_scale[cs] + leak_s, a_e * mods.exhaust_scale[cs] + leak_e
 
 
 def filtered_supply_flow(exp: Experiment, model: ChamberModel, u_fine: np.ndarray) -> np.ndarray:

@@ -22,6 +22,7 @@ except ImportError:  # pragma: no cover - numba is a dependency; the reference t
     njit = None
 
 from .data import FINE_DT, Experiment, fine_pressures
+from .supply_shares import SupplyShares
 
 
 def experiment_key(exp: Experiment) -> str:
@@ -103,7 +104,19 @@ def path(total, dt, c: CompressorCycling, starts, p0, run0, rt, room) -> np.ndar
 
 def measured_supply_flow(exp: Experiment, model, u_fine: np.ndarray, supply_pa) -> np.ndarray:
     """(F,) the total flow [kg/s] the valves draw on the 1 ms grid at the measured pressures
-    (sensor offsets of the model removed) from a supply at ``supply_pa`` (scalar or (F,))."""
+    (sensor offsets of the model removed) from a supply at ``supply_pa`` (scalar or (F,)).
+    From a scalar supply each chamber's share is kept on ``exp`` and recomputed only where its
+    inputs changed (supply_shares.SupplyShares; the same sum as
+    :func:`measured_supply_flow_reference`'s)."""
+    if np.isscalar(supply_pa):
+        if exp.supply_shares is None:
+            exp.supply_shares = SupplyShares()
+        return exp.supply_shares.total(exp, model, u_fine, supply_pa)
+    return measured_supply_flow_reference(exp, model, u_fine, supply_pa)
+
+
+def measured_supply_flow_reference(exp: Experiment, model, u_fine: np.ndarray, supply_pa) -> np.ndarray:
+    """:func:`measured_supply_flow` computed whole: every chamber's flow at every call."""
     p = fine_pressures(exp, model.mods)
     a_s, _ = model.areas(u_fine[: p.shape[0]])
     ps = supply_pa if np.isscalar(supply_pa) else np.asarray(supply_pa)[: p.shape[0], None]

@@ -1,0 +1,91 @@
+"""The supply flow at the measured pressures kept per chamber (supply_shares.SupplyShares)
+against its whole recomputation (receiver.measured_supply_flow_reference): whatever sequence of
+changes to the chamber model, the commands or the supply pressure, the kept sum is the
+recomputed one."""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+
+@functools.lru_cache(maxsize=1)
+def _experiment():
+    """A prepared 6 s recording of arm2 (4 chambers) under its PIDF."""
+    from identification.doctor.valve_arm.data import prepare
+    from pneumatics.effects.effect_set import EffectSet
+    from pneumatics.robot import load_robot
+    from scenarios._cases import _record
+
+    robot = load_robot("arm2")
+    return prepare(robot, _record(robot, EffectSet(), 5, 6.0, 2.0)["main"])
+
+
+#: (field, change) of one step: a per-chamber field scaled or set at one chamber, the shared
+#: leak width, one chamber's commands shifted, or the supply pressure
+_FIELDS = ("supply_scale", "exhaust_scale", "dead_volume_scale", "valve_leak_m2", "valve_leak_exhaust_m2",
+           "valve_underlap_m2", "sensor_offset_pa", "sensor_drift_pa", "valve_leak_width_v", "u", "supply_pa")
+_steps = st.lists(st.tuples(st.sampled_from(_FIELDS), st.integers(0, 3), st.floats(-1.0, 1.0)), min_size=1, max_size=6)
+
+
+def _changed(mods, u, supply_pa, field, c, x):
+    """(mods, u, supply_pa) after one step."""
+    n = mods.supply_scale.size
+    if field == "u":
+        u = u.copy()
+        u[:, c] += 0.3 * x
+    elif field == "supply_pa":
+        supply_pa = supply_pa * (1.0 + 0.05 * x)
+    elif field == "valve_leak_width_v":
+        mods = mods.copy(valve_leak_width_v=mods.valve_leak_width_v * (1.0 + 0.5 * x))
+    else:
+        scale = {"sensor_offset_pa": 3e3, "sensor_drift_pa": 3e3, "valve_leak_m2": 2e-8,
+                 "valve_leak_exhaust_m2": 2e-8, "valve_underlap_m2": 2e-8}.get(field)
+        v = getattr(mods, field)
+        v = (np.zeros(n) if scale else np.ones(n)) if v is None else np.array(v, float)
+        v[c] = scale * x if scale else v[c] * (1.0 + 0.1 * x)
+        extra = {"sensor_drift_tau_s": np.full(n, 20.0)} if field == "sensor_drift_pa" else {}
+        mods = mods.copy(**{field: v}, **extra)
+    return mods, u, supply_pa
+
+
+@settings(max_examples=25, deadline=None)
+@given(_steps)
+def test_the_kept_shares_sum_to_the_recomputed_supply_flow(steps):
+    from identification.doctor.valve_arm.pneumatic import ChamberModel, PneumaticMods, effective_commands
+    from identification.doctor.valve_arm.receiver import measured_supply_flow_reference
+    from identification.doctor.valve_arm.supply_shares import SupplyShares
+
+    exp = _experiment()
+    mods = PneumaticMods.nominal(exp.robot.tables.n_chambers)
+    u, supply_pa = effective_commands(exp, mods), float(exp.robot.tables.supply_pa)
+    shares = SupplyShares()
+    for field, c, x in [("supply_scale", 0, 0.0), *steps]:
+        mods, u, supply_pa = _changed(mods, u, supply_pa, field, c, x)
+        model = ChamberModel(exp.robot, mods, 1)
+        kept = shares.total(exp, model, u, supply_pa)
+        whole = measured_supply_flow_reference(exp, model, u, supply_pa)
+        np.testing.assert_allclose(kept, whole, rtol=1e-12, atol=1e-18)
+        assert np.all(kept >= 0) and np.any(kept > 0)
+
+
+def test_a_change_at_one_chamber_recomputes_that_chamber_alone(monkeypatch):
+    from identification.doctor.valve_arm import supply_shares
+    from identification.doctor.valve_arm.pneumatic import ChamberModel, PneumaticMods, effective_commands
+
+    exp = _experiment()
+    mods = PneumaticMods.nominal(exp.robot.tables.n_chambers)
+    u, supply_pa = effective_commands(exp, mods), float(exp.robot.tables.supply_pa)
+    asked = []
+    real = supply_shares.chamber_supply_flows
+    monkeypatch.setattr(supply_shares, "chamber_supply_flows", lambda *a: asked.append(list(a[-1])) or real(*a))
+    shares = supply_shares.SupplyShares()
+    shares.total(exp, ChamberModel(exp.robot, mods, 1), u, supply_pa)
+    scale = mods.supply_scale.copy()
+    scale[2] *= 1.01
+    shares.total(exp, ChamberModel(exp.robot, mods.copy(supply_scale=scale), 1), u, supply_pa)
+    # the exhaust side and the volumes do not draw from the supply: nothing to recompute
+    shares.total(exp, ChamberModel(exp.robot, mods.copy(supply_scale=scale, exhaust_scale=scale), 1), u, supply_pa)
+    assert asked == [[0, 1, 2, 3], [2]]
