@@ -43,3 +43,20 @@ def test_a_finding_whose_coupled_replay_got_worse_says_worse_and_shows_the_numbe
     assert "4 % worse" in text and "-4 % better" not in text
     assert "kept by its joint's angle, replayed 0.2 s at a time" in text and "0.0400 → 0.0350 (12 % better)" in text
     assert change(0.05, 0.04) == "20 % better" and change(0.05, 0.05) == "0 % better"
+
+
+def test_report_md_says_why_each_joint_effect_fitted_by_output_error_was_named_or_not():
+    from identification.doctor.valve_arm.report import candidate_lines
+
+    records = [{"hypothesis": "coulomb_friction@left_hip_yaw", "round": 1, "joint": "left_hip_yaw",
+                "values": [0.026], "stderr": [0.005], "t": [5.2], "train_gain": 0.31,
+                "heldout_nrmse": {"before": None, "after": None},
+                "verdict": "refused: a value under 8 cluster-robust standard errors from zero"},
+               {"hypothesis": "viscous_friction@jaw", "round": 1, "joint": "jaw", "values": [0.02], "stderr": [0.001],
+                "t": [20.0], "train_gain": 0.5, "heldout_nrmse": {"before": 0.204, "after": 0.097}, "verdict": "named"}]
+    lines = candidate_lines(records)
+    table = [line for line in lines if line.startswith("| 1 ")]
+    assert len(table) == 2
+    assert "0.026 (5.2)" in table[0] and "—" in table[0] and "8 cluster-robust" in table[0]
+    assert "0.2040 → 0.0970" in table[1] and table[1].endswith("| named |")
+    assert candidate_lines([]) == []   # no section where the search did not run

@@ -202,6 +202,24 @@ def change(before: float, after: float) -> str:
     return f"{pct:.0f} % better" if pct >= 0 else f"{-pct:.0f} % worse"
 
 
+def candidate_lines(records: list) -> list[str]:
+    """The report's table of the joint effects fitted to the replayed angles (output_error.
+    candidate_record), each with why it was or was not named; none when the search did not run."""
+    if not records:
+        return []
+    lines = ["", "## Joint effects fitted to the replayed angles", "",
+             "Where the rigid body was held nominal, each candidate of the screen was fitted to its joint's "
+             "replayed angle; its verdict says which rule named or refused it.", "",
+             "| round | hypothesis | values (t) | training gain | held-out angle NRMSE | verdict |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for r in records:
+        vals = ", ".join(f"{v:.4g} ({t:.1f})" if t is not None else f"{v:.4g}" for v, t in zip(r["values"], r["t"]))
+        h = r["heldout_nrmse"]
+        held = f"{h['before']:.4f} → {h['after']:.4f}" if h["before"] is not None else "—"
+        lines.append(f"| {r['round']} | {r['hypothesis']} | {vals} | {r['train_gain']:.2f} | {held} | {r['verdict']} |")
+    return lines
+
+
 def _markdown(report, pngs, fitted: bool = False) -> str:
     lines = [f"# pneumasim doctor report — {report['model']}", "", "```", summary(report), "```", ""]
     if fitted:
@@ -237,6 +255,7 @@ def _markdown(report, pngs, fitted: bool = False) -> str:
                          + carried)
     else:
         lines.append("Nothing above the noise floor is left unexplained.")
+    lines += candidate_lines(report["diagnostics"].get("output_error_candidates", []))
     lines += ["", "## Calibration (1 = nominal)", "",
               "Fitted first, before any effect; then refitted jointly with the findings (the model kept).", "",
               "| parameter | before the effects | with the findings |", "| --- | --- | --- |"]
