@@ -89,3 +89,36 @@ def test_a_change_at_one_chamber_recomputes_that_chamber_alone(monkeypatch):
     # the exhaust side and the volumes do not draw from the supply: nothing to recompute
     shares.total(exp, ChamberModel(exp.robot, mods.copy(supply_scale=scale, exhaust_scale=scale), 1), u, supply_pa)
     assert asked == [[0, 1, 2, 3], [2]]
+
+
+def test_under_a_held_receiver_path_a_cylinder_replays_alone_as_in_the_whole_replay():
+    """A compressor's receiver whose path the model holds gives every window its supply
+    pressure whatever the chambers draw: a cylinder's chambers replayed alone are the whole
+    replay's columns, and so a candidate refits its own cylinders only.  Without the path held
+    (the receiver integrated from every chamber's flow) the replay refuses to split."""
+    import pytest
+
+    from identification.doctor.valve_arm.pneumatic import PneumaticMods, Windows, chambers_independent, replay
+    from identification.doctor.valve_arm.receiver import experiment_key
+    from identification.doctor.valve_arm.screening import own_cylinders
+    from identification.doctor.valve_arm.hypotheses import pneumatic_hypotheses
+
+    exp = _experiment()
+    C = exp.robot.tables.n_chambers
+    receiver = dict(supply_receiver_m3=1e-3, supply_compressor_kg_s=4e-4, supply_band_pa=3e4,
+                    supply_cut_out_pa=float(exp.robot.tables.supply_pa), supply_leak_kg_s_pa=3e-11)
+    path = float(exp.robot.tables.supply_pa) - 2e4 * (1.0 + np.sin(2 * np.pi * exp.fine_t / 3.0))
+    held = PneumaticMods.nominal(C).copy(**receiver, receiver_paths={experiment_key(exp): path})
+    unheld = PneumaticMods.nominal(C).copy(**receiver)
+    assert chambers_independent(held, (exp,)) and not chambers_independent(unheld, (exp,))
+    assert not chambers_independent(held, ())  # no experiment named: no path known to be held
+    win = Windows(np.arange(10, 500, 30), 30)
+    whole, _ = replay(exp, win, held)
+    alone, _ = replay(exp, win, held, np.array([2, 3]))
+    np.testing.assert_array_equal(alone, whole[..., 2:4])
+    assert not np.allclose(whole, replay(exp, win, PneumaticMods.nominal(C))[0])  # the path moved the supply
+    with pytest.raises(ValueError):
+        replay(exp, win, unheld, np.array([2, 3]))
+    leak = next(h for h in pneumatic_hypotheses(exp.robot) if h.label == "valve_leak@elbow.a")
+    assert list(own_cylinders(leak, held, C, (exp,))) == [2, 3]
+    assert own_cylinders(leak, unheld, C, (exp,)) is None

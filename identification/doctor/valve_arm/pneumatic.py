@@ -30,7 +30,7 @@ from pneumatics.valve import valve_areas
 
 from .chamber_kernel import replay_batch, step_batch
 from .data import FINE_DT, Experiment, fine_pressures
-from .receiver import compressor_of, measured_supply_flow, receiver_trajectory
+from .receiver import compressor_of, held_path, measured_supply_flow, receiver_trajectory
 from .thermal import gas_temperatures
 from .tubes import has_tubes, start_tubes, tube_step_reference
 
@@ -506,12 +506,16 @@ def filtered_supply_flow(exp: Experiment, model: ChamberModel, u_fine: np.ndarra
     return lfilter([a], [1.0, a - 1.0], total, zi=[(1.0 - a) * total[0]])[0]
 
 
-def chambers_independent(mods: PneumaticMods) -> bool:
-    """Whether each cylinder's chambers replay independently of the others' under ``mods``:
-    no supply pressure that falls with their summed flow (supply_droop) and no compressor's
-    receiver integrated from it.  The valves, leaks, volumes, gas temperatures and sensors are
-    each chamber's own; a piston leak joins a cylinder's two chambers."""
-    return not has_droop(mods) and compressor_of(mods) is None
+def chambers_independent(mods: PneumaticMods, exps=()) -> bool:
+    """Whether each cylinder's chambers replay independently of the others' under ``mods`` on
+    the experiments ``exps``: no supply pressure that falls with their summed flow
+    (supply_droop) and no compressor's receiver integrated from it -- a receiver whose path the
+    model holds for each of ``exps`` (receiver.held_path) gives every window its supply
+    pressure whatever the chambers draw.  The valves, leaks, volumes, gas temperatures and
+    sensors are each chamber's own; a piston leak joins a cylinder's two chambers."""
+    if has_droop(mods):
+        return False
+    return compressor_of(mods) is None or (bool(exps) and all(held_path(mods, e) is not None for e in exps))
 
 
 def has_droop(mods: PneumaticMods) -> bool:
@@ -534,7 +538,7 @@ def replay(exp: Experiment, win: Windows, mods: PneumaticMods, chambers: np.ndar
     :func:`chambers_independent` holds: the same numbers as their columns of the whole replay
     at a fraction of its cost on a robot of many cylinders."""
     W, H, S = win.starts.size, win.horizon, exp.n_sub
-    if chambers is not None and not chambers_independent(mods):
+    if chambers is not None and not chambers_independent(mods, (exp,)):
         raise ValueError("these chambers share a supply whose pressure follows all their flows: replay them all")
     cols = slice(None) if chambers is None else np.asarray(chambers, int)
     model = ChamberModel(exp.robot, mods, W, None if chambers is None else cols)

@@ -102,6 +102,13 @@ def path(total, dt, c: CompressorCycling, starts, p0, run0, rt, room) -> np.ndar
                           float(room), np.empty(len(total)))
 
 
+def held_path(mods, exp: Experiment) -> np.ndarray | None:
+    """(F,) the receiver's pressure [Pa] along ``exp`` that the chamber model ``mods`` holds
+    (``receiver_paths``, as the receiver's fit left it), None where it holds none as long."""
+    held = (mods.receiver_paths or {}).get(experiment_key(exp))
+    return held if held is not None and held.size >= exp.fine_t.size - 1 else None
+
+
 def measured_supply_flow(exp: Experiment, model, u_fine: np.ndarray, supply_pa) -> np.ndarray:
     """(F,) the total flow [kg/s] the valves draw on the 1 ms grid at the measured pressures
     (sensor offsets of the model removed) from a supply at ``supply_pa`` (scalar or (F,)).
@@ -132,8 +139,8 @@ def receiver_trajectory(exp: Experiment, model, u_fine: np.ndarray) -> np.ndarra
     c = compressor_of(model.mods)
     if c is None:
         return None
-    held = (model.mods.receiver_paths or {}).get(experiment_key(exp))
-    if held is not None and held.size >= exp.fine_t.size - 1:
+    held = held_path(model.mods, exp)
+    if held is not None:
         return held
     starts = segment_starts(exp, exp.n_sub)
     held = [(c.cut_out_pa, False)] * starts.size

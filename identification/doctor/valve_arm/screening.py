@@ -149,10 +149,12 @@ def probe_groups(hyps, n_chambers: int) -> list[list]:
     return out + [g for gs in groups.values() for g in gs]
 
 
-def fit_pneumatic(s: Scored, exp, win, mods, sigma):
+def fit_pneumatic(s: Scored, exp, win, mods, sigma, held=None):
     """Fit hypothesis s jointly with the chamber calibration.  Its parameters are fitted in
     units of their probe steps (a leak area of 1e-8 m^2 and a delay of 0.01 s both become O(1)),
-    so the finite-difference Jacobian's relative steps mean the same for every parameter."""
+    so the finite-difference Jacobian's relative steps mean the same for every parameter.  Its
+    own cylinders alone are refitted where :func:`own_cylinders` allows, on ``exp`` and on the
+    held-out experiment ``held`` that will judge it (None: ``exp`` alone)."""
     h = s.hyp
     names = [p[0] for p in h.params]
     unit = np.array([p[4] for p in h.params])
@@ -161,7 +163,7 @@ def fit_pneumatic(s: Scored, exp, win, mods, sigma):
     hi = np.array([p[3] for p in h.params]) / unit
     extra = (names, x0, lo, hi, lambda m, z: h.apply(m, z * unit), [h.chambers] * len(names))
     wide = h.chambers if h.adds_volume else ()
-    s.refitted = own_cylinders(h, mods, exp.robot.tables.n_chambers)
+    s.refitted = own_cylinders(h, mods, exp.robot.tables.n_chambers, (exp, held) if held is not None else (exp,))
     new_mods, fit = fit_chambers(exp, win, mods, sigma, extra=extra, wide_dead_volume=wide, chambers=s.refitted)
     k = len(names)
     fit.values[-k:] *= unit
@@ -190,9 +192,10 @@ class CandidateFits:
     def __init__(self):
         self.mods, self.done = None, {}
 
-    def fit(self, s: Scored, exp, win, mods, sigma, say=lambda message: None) -> bool:
-        """Fit ``s`` against ``mods`` like fit_pneumatic, or take over the fit of the same
-        hypothesis against the same ``mods`` object; returns whether it was taken over."""
+    def fit(self, s: Scored, exp, win, mods, sigma, held=None, say=lambda message: None) -> bool:
+        """Fit ``s`` against ``mods`` like fit_pneumatic (judged later on ``held``), or take
+        over the fit of the same hypothesis against the same ``mods`` object; returns whether
+        it was taken over."""
         if mods is not self.mods:
             self.mods, self.done = mods, {}
         key = hypothesis_key(s.hyp)
@@ -201,7 +204,7 @@ class CandidateFits:
             s.fit, s.mods, s.refitted = self.done[key]
             return True
         say(f"fitting {s.hyp.label}")
-        fit_pneumatic(s, exp, win, mods, sigma)
+        fit_pneumatic(s, exp, win, mods, sigma, held)
         self.done[key] = (s.fit, s.mods, s.refitted)
         return False
 
@@ -212,17 +215,20 @@ def hypothesis_key(h) -> tuple:
     return (h.label, h.form, repr(h.params), repr(h.fixed), h.adds_volume)
 
 
-def own_cylinders(h, mods, n_chambers: int) -> np.ndarray | None:
+def own_cylinders(h, mods, n_chambers: int, exps=()) -> np.ndarray | None:
     """The chambers of the cylinders hypothesis ``h`` acts on, when only they need replaying
     and refitting beside it: ``h`` at chambers, not at the supply, and the chambers independent
-    under ``mods`` and under ``h`` (pneumatic.chambers_independent).  None: all of them (a
+    under ``mods`` and under ``h`` on the experiments ``exps`` (pneumatic.chambers_independent:
+    no drooping supply, no compressor's receiver but one whose path the model holds for them;
+    humanoid38's supply-droop case 151639049 carried such a receiver, and each of its 36
+    candidates refitted and replayed all 76 chambers, 25 s a fit).  None: all of them (a
     cylinder's model does not depend on another's, so refitting the others' calibration
     beside ``h`` would only repeat the calibration; on humanoid38's 38 cylinders it cost
     nearly half the doctor's time)."""
-    if not h.chambers or "supply" in h.where or not chambers_independent(mods):
+    if not h.chambers or "supply" in h.where or not chambers_independent(mods, exps):
         return None
     x0 = np.array([p[1] + p[4] for p in h.params])
-    if not chambers_independent(h.apply(mods, x0)):
+    if not chambers_independent(h.apply(mods, x0), exps):
         return None
     own = cylinder_chambers(h.chambers)
     return None if own.size == n_chambers else own

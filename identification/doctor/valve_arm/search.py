@@ -76,7 +76,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
         if not top:
             break
         for s in top:
-            fits.fit(s, exp, run.fit_win, run.mods, run.sigma, say)
+            fits.fit(s, exp, run.fit_win, run.mods, run.sigma, held, say)
             # where the fit refitted its own cylinders alone, the others replay as before
             own = s.refitted
             s.heldout_before, s.heldout_after = base_h, chamber_rms(held, win_h, s.mods, own, base_h)
