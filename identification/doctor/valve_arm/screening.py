@@ -184,10 +184,11 @@ class CandidateFits:
     is fitted against, nothing else: a greedy round whose best is refused (a sensor offset the
     torque balance contradicts, a partial projection, a compliant wall) leaves the model as it
     was, and the next round fits mostly the same candidates again to the same numbers.  On
-    humanoid38 with a drooping supply, where every candidate replays all 76 chambers, that
-    repetition was half the doctor's time (development seed 151639049: three rounds against one
-    model, 36 fits of ~25 s).  Taken over, the fits are the same objects' numbers, so the
-    search decides exactly as it did."""
+    humanoid38's supply-droop case 151639049 (development, profiled 2026-12-03), whose
+    compressor then made every candidate replay all 76 chambers, the second round refitted ten
+    of the first round's twelve candidates, about 300 s of a 1380 s doctor run, after the
+    first round's best was refused.  Taken over, the fits are the same objects' numbers, so
+    the search decides exactly as it did."""
 
     def __init__(self):
         self.mods, self.done = None, {}
