@@ -12,8 +12,9 @@ doctor run on a supply-droop case (development seed 151639048, profiled 2026-12-
 
 :class:`SupplyShares` keeps the last (F, C) shares of one recording set and recomputes the
 columns whose inputs changed: the chamber's commands on the grid and its fields of the chamber
-model that the flow reads (:data:`SHARE_FIELDS`; a change of any other field of
-:data:`SHARED_FIELDS` recomputes them all).  receiver.measured_supply_flow is the reference it
+model that the flow reads (:data:`SHARE_FIELDS`); a change of a field every chamber reads
+alike (:data:`SHARED_FIELDS`), of the supply pressure or of the recording set recomputes them
+all.  receiver.measured_supply_flow is the reference it
 is tested against (tests/test_supply_shares.py).
 """
 from __future__ import annotations
@@ -57,7 +58,7 @@ class SupplyShares:
         else:
             stale = [c for c, (new, old) in enumerate(zip(inputs, self.inputs)) if new != old]
         if stale:
-            if self.shares is None or len(stale) == len(inputs):
+            if len(stale) == len(inputs):  # every column made anew (and the first time)
                 self.shares = np.empty((F, len(inputs)))
             self.shares[:, stale] = chamber_supply_flows(exp, model, u_fine, float(supply_pa), np.array(stale))
         self.data, self.shared, self.inputs = data, shared, inputs
