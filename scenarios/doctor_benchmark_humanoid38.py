@@ -111,13 +111,53 @@ def humanoid_case(case: dict) -> dict:
     for private in [k for k in report if k.startswith("_")]:  # replays and the fitted model: not JSON
         report.pop(private)
     lenient = judge(truth["effects"], report)
+    detection = [effect_against_limit(e, report["diagnostics"].get("output_error_screen", {})) for e in truth["effects"]]
     return {"case": f"case_{case['seed']}", "seed": case["seed"], "kind": case_kind(truth["families"]),
             "families": truth["families"], "effects": truth["effects"], "truth": truth,
             "verdict": report["verdict"], "named": [f["effect"] for f in report["findings"]],
             "findings": [_finding(f) for f in report["findings"]], "unexplained": report["unexplained"],
             "lenient_effect_ok": lenient["family_ok"], "lenient_location_ok": lenient["location_ok"],
-            "seconds": seconds, "generate_seconds": generate_s, "peak_memory_mib": _peak_mib(),
+            "detection": detection, "seconds": seconds, "generate_seconds": generate_s, "peak_memory_mib": _peak_mib(),
             "chambers": robot.tables.n_chambers, "subset": subset, "report": report}
+
+
+#: a hidden effect's size as the output-error screen states its detection limit: family ->
+#: (the screen's parameter, the truth's path to it); a pressure-sensor offset's limit is stated
+#: on its cylinder's chamber a (the force it fakes), used for either chamber
+TRUTH_SIZE = {"coulomb_friction": ("friction", "coulomb_nm"), "viscous_friction": ("friction", "viscous_nm_s"),
+              "angle_sensor_offset": ("angle_offset_rad",), "pressure_sensor_offset": ("pressure_offset_pa",)}
+
+
+def effect_against_limit(effect: dict, screen: dict) -> dict:
+    """{family, size, limit}: a hidden effect's size and the smallest one the doctor said these
+    recordings could show at its place (output_error.detection_limit); limit None where the
+    doctor stated none (a family or place the output-error screen does not fit, or the screen
+    did not run: the rigid body's calibration was kept)."""
+    fam, where = effect["family"], effect["where"]
+    path = TRUTH_SIZE.get(fam)
+    limits = screen.get(fam, {}).get("detection_limit", {})
+    if path is None or not limits:
+        return {"family": fam, "size": None, "limit": None}
+    size = effect["parameters"]
+    for key in path:
+        size = size[key]
+    limit = limits.get(where.get("joint") or where.get("actuator"))
+    return {"family": fam, "size": abs(float(size)), "limit": limit}
+
+
+def below_limit_metrics(rows: list[dict]) -> dict:
+    """How many effect cases the doctor could not have named on its own statement: silent cases
+    every effect of which lies under the detection limit the doctor stated at its place, and
+    effects with a stated limit that were under it.  An explanation beside the strict metrics,
+    not a correction of them."""
+    cases = [r for r in rows if r["effects"]]
+    stated = [d for r in cases for d in r.get("detection", []) if d["limit"] is not None]
+    silent = [r for r in cases if not r["findings"] and not r["unexplained"]]
+    under = [r for r in silent if r.get("detection") and all(d["limit"] is not None and d["size"] < d["limit"]
+                                                            for d in r["detection"])]
+    return {"effects_with_stated_detection_limit": len(stated),
+            "effects_under_stated_detection_limit": sum(d["size"] < d["limit"] for d in stated),
+            "silent_cases_under_stated_detection_limit": len(under), "silent_cases": len(silent)}
 
 
 def _finding(f: dict) -> dict:
@@ -171,6 +211,7 @@ def metrics(rows: list[dict], families: list[str], arm2: dict, parts: list[dict]
         m[f"subset_chambers.{p['subset']}"] = p["chambers"]
         # a part's timing case is a null case too: what it reports is a false discovery
         m[f"subset_null_entries.{p['subset']}"] = len(p["findings"]) + len(p["unexplained"])
+    m.update(below_limit_metrics(rows))
     m["seeds"] = ",".join(str(r["seed"]) for r in rows)
     return m
 

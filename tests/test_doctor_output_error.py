@@ -148,3 +148,22 @@ def test_the_whole_doctor_reports_a_replayed_friction_with_its_numbers(monkeypat
     (e,) = [e for e in rep["_fitted"].effects if "joint" in e.where]      # what the user keeps
     assert (e.family, e.where) == (f["effect"], {"joint": "elbow"})
     assert e.value("coulomb_nm") == pytest.approx(f["parameters"]["coulomb_nm"]["value"])
+
+
+def test_an_effect_over_its_detection_limit_passes_the_naming_rules_and_one_well_under_it_does_not():
+    """The detection limit stated from a recording's replay mismatch alone: the same mismatch
+    with an effect of twice that size added gives a fit the significance and gain rules name;
+    a third of it, one they refuse."""
+    from identification.doctor.valve_arm.output_error import (
+        MIN_TRAIN_GAIN, OUTPUT_ERROR_MIN_T, OutputErrorFit, detection_limit)
+
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        A, _ = _windows(rng)
+        mismatch = _windows(rng, theta=0.0)[1]
+        fit = OutputErrorFit(None, *gauss_newton_step(A, mismatch))
+        limit = detection_limit(A[..., 0], mismatch, fit, "coulomb_friction", floor=0.1)
+        for size, named in ((2.0 * limit, True), (limit / 3.0, False)):
+            theta, se, gain = gauss_newton_step(A, mismatch + A[..., 0] * size)
+            passes = abs(theta[0]) >= OUTPUT_ERROR_MIN_T * se[0] and gain >= MIN_TRAIN_GAIN
+            assert passes == named

@@ -60,3 +60,21 @@ def test_report_md_says_why_each_joint_effect_fitted_by_output_error_was_named_o
     assert "0.026 (5.2)" in table[0] and "—" in table[0] and "8 cluster-robust" in table[0]
     assert "0.2040 → 0.0970" in table[1] and table[1].endswith("| named |")
     assert candidate_lines([]) == []   # no section where the search did not run
+
+
+def test_report_md_and_the_summary_say_how_small_a_joint_effect_the_recordings_could_show():
+    from identification.doctor.valve_arm.report import detection_lines
+
+    screen = {"coulomb_friction": {"floor": 0.1, "gains": {}, "parameter": "coulomb_nm",
+                                   "detection_limit": {"jaw": 0.02, "left_knee": 0.3, "right_elbow": 0.1}},
+              "angle_sensor_offset": {"floor": 0.1, "gains": {}, "parameter": "offset_rad", "detection_limit": {}}}
+    lines = detection_lines(screen)
+    (row,) = [line for line in lines if line.startswith("| coulomb_friction")]
+    assert row == "| coulomb_friction | coulomb_nm | 0.1 | 0.02 (jaw) | 0.3 (left_knee) |"
+    assert not [line for line in lines if line.startswith("| angle_sensor_offset")]   # no limit there: no row
+    assert detection_lines({}) == []                                                  # the screen did not run
+    report = _report(body_kept=False)
+    report["diagnostics"]["output_error_screen"] = screen
+    text = summary(report)
+    assert "smallest joint effects these recordings show" in text and "coulomb_friction coulomb_nm 0.1" in text
+    assert len(text.splitlines()) <= 7

@@ -168,6 +168,35 @@ def test_metrics_from_hand_made_rows_are_strict_and_keep_the_timing_cases():
     assert m["subset_null_entries.left_arm"] == 1  # the part's null case reported something
 
 
+def test_a_silent_case_is_counted_under_the_detection_limit_only_where_the_doctor_stated_one_above_it():
+    """The doctor's stated limit at the hidden effect's place against the effect's true size: a
+    Coulomb friction under it, a viscous friction over it, a valve leak (no stated limit)."""
+    from scenarios.doctor_benchmark_humanoid38 import below_limit_metrics, effect_against_limit
+
+    screen = {"coulomb_friction": {"parameter": "coulomb_nm", "detection_limit": {"right_knee": 0.3}},
+              "viscous_friction": {"parameter": "viscous_nm_s_per_rad", "detection_limit": {"jaw": 0.01}},
+              "pressure_sensor_offset": {"parameter": "offset_pa", "detection_limit": {"left_elbow": 3000.0}}}
+    coulomb = {"family": "coulomb_friction", "where": {"joint": "right_knee"}, "parameters": {"friction": {"coulomb_nm": -0.02}}}
+    viscous = {"family": "viscous_friction", "where": {"joint": "jaw"}, "parameters": {"friction": {"viscous_nm_s": 0.03}}}
+    offset = {"family": "pressure_sensor_offset", "where": {"actuator": "left_elbow", "chamber": "b"},
+              "parameters": {"pressure_offset_pa": -5000.0}}
+    leak = {"family": "valve_leak", "where": {"actuator": "jaw", "chamber": "a"}, "parameters": {"valve_leak_m2": 1e-8}}
+    assert effect_against_limit(coulomb, screen) == {"family": "coulomb_friction", "size": 0.02, "limit": 0.3}
+    assert effect_against_limit(offset, screen)["limit"] == 3000.0          # stated on the cylinder's chamber a
+    assert effect_against_limit(leak, screen)["limit"] is None
+    assert effect_against_limit(coulomb, {})["limit"] is None               # the screen did not run
+
+    def row(effect, findings=()):
+        return {"effects": [effect], "findings": list(findings), "unexplained": [],
+                "detection": [effect_against_limit(effect, screen)]}
+
+    rows = [row(coulomb), row(viscous), row(leak), row(offset, [{"effect": "pressure_sensor_offset"}]),
+            {"effects": [], "findings": [], "unexplained": [], "detection": []}]
+    m = below_limit_metrics(rows)
+    assert m == {"effects_with_stated_detection_limit": 3, "effects_under_stated_detection_limit": 1,
+                 "silent_cases_under_stated_detection_limit": 1, "silent_cases": 3}
+
+
 def test_a_fresh_humanoid_run_draws_its_base_and_a_resumed_one_keeps_it(tmp_path, monkeypatch):
     """PNEUMASIM_HUMANOID_SEED: unset, the development base 7000; "fresh", a 9-digit base from
     the operating system's entropy, read back from seed.json while the run has no metrics.json."""

@@ -277,7 +277,11 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
         # every joint (an unphysical one counts as none), whose spread a true effect stands out of
         gains = [f.train_gain if f is not None and physical(f, tested=False) else 0.0 for f in fits]
         floor = max(SCREEN_GAIN, robust_ceiling(gains))
-        run.output_error_screen[family] = {"floor": floor, "gains": dict(zip(robot.joint_names, gains))}
+        limits = {robot.joint_names[j]: detection_limit(sens[:, :, j], r[:, :, j], f, family, floor)
+                  for j, f in enumerate(fits) if f is not None}
+        limits = {j: v for j, v in limits.items() if np.isfinite(v)}   # a joint the probe did not move: none
+        run.output_error_screen[family] = {"floor": floor, "gains": dict(zip(robot.joint_names, gains)),
+                                           "parameter": param, "detection_limit": limits}
         passed += [f for f in fits if f is not None and f.train_gain >= floor and physical(f)]
     passed.sort(key=lambda f: -f.train_gain)
     out = []
@@ -291,6 +295,25 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
         if f.scored.hyp.joint in chamber_b and f.scored.hyp.family == "pressure_sensor_offset":
             out.append((Scored(chamber_b[f.scored.hyp.joint], f.train_gain), -step))
     return out
+
+
+def detection_limit(sens: np.ndarray, r: np.ndarray, fit: OutputErrorFit, family: str, floor: float) -> float:
+    """The smallest size of ``family``'s parameter at a joint that the rules could name there
+    on this recording: the larger of (a) the value standing the naming rule's t (significant)
+    from zero at the screen's cluster-robust standard error, and (b) the value whose replayed
+    change removes the larger of the screen's ``floor`` and MIN_TRAIN_GAIN of the joint's
+    training angle mean square, were the rest of that error (the replay's mismatch, ``r``
+    (W, H) at the screen's windows) independent of it: a change of size theta with signature
+    ``sens`` (W, H) removes g = |S theta|^2 / (|S theta|^2 + |r|^2), so theta = sqrt(g / (1 - g))
+    |r| / |S|.  Below it a silent joint is no evidence that the effect is absent: the recording
+    cannot show it through this replay.  An approximation (the screen's errors, the mismatch
+    taken as independent), stated as such in the report."""
+    t = OFFSET_MIN_T if family == "pressure_sensor_offset" else OUTPUT_ERROR_MIN_T
+    g = max(floor, MIN_TRAIN_GAIN)
+    ok = np.all(np.isfinite(sens), axis=1) & np.all(np.isfinite(r), axis=1)
+    s_norm = float(np.sqrt(np.sum(sens[ok] ** 2)))
+    by_gain = np.sqrt(g / (1.0 - g)) * float(np.sqrt(np.sum(r[ok] ** 2))) / s_norm if s_norm > 0 else np.inf
+    return float(max(t * float(fit.stderr[0]), by_gain))
 
 
 def screen_hypotheses(run: DoctorRun) -> tuple[dict, dict]:

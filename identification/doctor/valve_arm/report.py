@@ -49,6 +49,9 @@ def summary(report: dict) -> str:
     flags = d["calibration_flags"]
     if flags:
         lines.append(f"  calibration moved > 10 %: {', '.join(flags[:6])}{' ...' if len(flags) > 6 else ''}")
+    if limits := detection_medians(d.get("output_error_screen", {})):
+        lines.append("  smallest joint effects these recordings show (median over the joints): "
+                     + ", ".join(f"{fam} {par} {v:.2g}" for fam, par, v in limits))
     if not d.get("rigid_body_calibration_replay", {}).get("kept", True):
         lines.append("  rigid body held nominal: calibrated, it replayed the held-out angles worse (motion faster "
                      "than the recording resolves?); joint findings kept only where they improve the replayed angle")
@@ -202,6 +205,39 @@ def change(before: float, after: float) -> str:
     return f"{pct:.0f} % better" if pct >= 0 else f"{-pct:.0f} % worse"
 
 
+def detection_medians(screen: dict) -> list[tuple[str, str, float]]:
+    """[(family, parameter, median over the joints of its detection limit)] of the output-error
+    screen (output_error.detection_limit), the families whose limits are finite."""
+    out = []
+    for family, s in screen.items():
+        v = list(s.get("detection_limit", {}).values())
+        if v:
+            out.append((family, s["parameter"], float(np.median(v))))
+    return out
+
+
+def detection_lines(screen: dict) -> list[str]:
+    """report.md's table of what the recordings could show at the joints: per screened family,
+    the median, smallest and largest detection limit over the joints (output_error.
+    detection_limit); none when the output-error screen did not run."""
+    rows = [(fam, s) for fam, s in screen.items() if s.get("detection_limit")]
+    if not rows:
+        return []
+    lines = ["", "## What the recordings could show at the joints", "",
+             "The smallest effect of each family the rules could name at a joint on these recordings (the "
+             "larger of 8 standard errors of the screen's fit -- 4 for a pressure offset, on the joint's "
+             "cylinder -- and the size that would remove the screen's training-gain floor of the joint's "
+             "replayed-angle error; approximate: that error taken as independent of the effect). A joint "
+             "with nothing named may still carry an effect below its limit.", "",
+             "| family | parameter | median | smallest (joint) | largest (joint) |", "| --- | --- | --- | --- | --- |"]
+    for fam, s in rows:
+        lim = s["detection_limit"]
+        lo, hi = min(lim, key=lim.get), max(lim, key=lim.get)
+        lines.append(f"| {fam} | {s['parameter']} | {np.median(list(lim.values())):.3g} | "
+                     f"{lim[lo]:.3g} ({lo}) | {lim[hi]:.3g} ({hi}) |")
+    return lines
+
+
 def candidate_lines(records: list) -> list[str]:
     """The report's table of the joint effects fitted to the replayed angles (output_error.
     candidate_record), each with why it was or was not named; none when the search did not run."""
@@ -256,6 +292,7 @@ def _markdown(report, pngs, fitted: bool = False) -> str:
     else:
         lines.append("Nothing above the noise floor is left unexplained.")
     lines += candidate_lines(report["diagnostics"].get("output_error_candidates", []))
+    lines += detection_lines(report["diagnostics"].get("output_error_screen", {}))
     lines += ["", "## Calibration (1 = nominal)", "",
               "Fitted first, before any effect; then refitted jointly with the findings (the model kept).", "",
               "| parameter | before the effects | with the findings |", "| --- | --- | --- |"]
