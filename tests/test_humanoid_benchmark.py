@@ -1,5 +1,6 @@
 """The humanoid38 doctor benchmark (issue 17, item 3): its case maker and its --fast run."""
 import json
+import os
 
 import numpy as np
 import pytest
@@ -166,6 +167,25 @@ def test_metrics_from_hand_made_rows_are_strict_and_keep_the_timing_cases():
     assert m["peak_memory_mib"] == 1500.0 and m["arm2_doctor_seconds"] == 8.0 and m["seeds"] == "1,2,3"
     assert m["subset_doctor_seconds.left_arm"] == 30.0 and m["subset_chambers.left_arm"] == 16
     assert m["subset_null_entries.left_arm"] == 1  # the part's null case reported something
+
+
+def test_a_case_measures_its_own_memory_peak_not_what_its_worker_needed_before():
+    """A warm worker's earlier case needed 400 MiB more than this one: the case's peak (the
+    high-water mark reset when it starts) is of this case, where the process's peak before the
+    reset held the earlier one."""
+    from scenarios.doctor_benchmark_humanoid38 import _case_peak_mib, _start_case_peak
+
+    if not os.path.exists("/proc/self/clear_refs"):
+        pytest.skip("no /proc: the case's peak is the process's")
+    big = np.ones(400 * 2 ** 20 // 8)        # every page written: resident
+    before = _case_peak_mib()
+    resident = before - big.nbytes / 2 ** 20
+    del big
+    _start_case_peak()
+    small = np.ones(2 ** 20)                 # 8 MiB
+    case = _case_peak_mib()
+    assert before - case > 300
+    assert case >= resident - 50 and small.nbytes > 0
 
 
 def test_a_silent_case_is_counted_under_the_detection_limit_only_where_the_doctor_stated_one_above_it():
