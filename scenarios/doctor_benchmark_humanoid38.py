@@ -24,8 +24,8 @@ joint, ``null_false_discovery_rate``, ``silent_miss_rate``, per family), the len
 the development sets, ``seconds_per_case`` (the doctor alone), ``generate_seconds_per_case``,
 and ``peak_memory_mib`` (the largest of the cases' peaks: each case's resident high-water mark
 in its warm worker, reset when the case starts -- recordings and doctor together, and whatever
-the worker still held from its earlier cases -- so that cases.json names the case that peaked).  doctor_time.png: the doctor's seconds
-against the number of chambers: arm2 (4, a null case of the same lengths), parts of
+the worker still held from its earlier cases -- so that cases.json names the case that
+peaked).  doctor_time.png: the doctor's seconds against the number of chambers: arm2 (4, a null case of the same lengths), parts of
 humanoid38 with its other joints locked at the home pose (pneumatics.robot_subset: the left
 arm 16, both arms 32, the upper body 48 chambers; a null case each, fixed seeds, its own
 calibrated PIDF) and humanoid38 (76, every case).
@@ -96,7 +96,7 @@ def _peak_mib() -> float:
 def _start_case_peak() -> None:
     """Start a case's own memory peak: Linux resets the process's resident high-water mark
     (VmHWM) when "5" is written to /proc/self/clear_refs (proc(5), since Linux 4.0); elsewhere
-    nothing (then :func:`_case_peak_mib` falls back to the worker's peak)."""
+    nothing (then :func:`_case_peak_mib` falls back to the process's peak)."""
     try:
         with open("/proc/self/clear_refs", "w") as f:
             f.write("5")
