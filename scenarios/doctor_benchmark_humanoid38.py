@@ -25,10 +25,10 @@ the development sets, ``seconds_per_case`` (the doctor alone), ``generate_second
 and ``peak_memory_mib`` (the largest of the cases' peaks: each case's resident high-water mark
 in its warm worker, reset when the case starts -- recordings and doctor together, and whatever
 the worker still held from its earlier cases -- so that cases.json names the case that
-peaked).  doctor_time.png: the doctor's seconds against the number of chambers: arm2 (4, a null case of the same lengths), parts of
-humanoid38 with its other joints locked at the home pose (pneumatics.robot_subset: the left
-arm 16, both arms 32, the upper body 48 chambers; a null case each, fixed seeds, its own
-calibrated PIDF) and humanoid38 (76, every case).
+peaked).  doctor_time.png: the doctor's seconds against the number of chambers: arm2 (4, a
+null case of the same lengths), parts of humanoid38 with its other joints locked at the home
+pose (pneumatics.robot_subset: the left arm 16, both arms 32, the upper body 48 chambers; a null
+case each, fixed seeds, its own calibrated PIDF) and humanoid38 (76, every case).
 
 Cases run through :func:`workflow.sweep.sweep` (``PNEUMASIM_WORKERS=N``); finished cases are
 kept in ``<out>/sweep/cases/`` (a rerun resumes).  Outputs: metrics.json, cases.json,
@@ -139,7 +139,8 @@ def humanoid_case(case: dict) -> dict:
     for private in [k for k in report if k.startswith("_")]:  # replays and the fitted model: not JSON
         report.pop(private)
     lenient = judge(truth["effects"], report)
-    detection = [effect_against_limit(e, report["diagnostics"].get("output_error_screen", {})) for e in truth["effects"]]
+    screen = report["diagnostics"].get("output_error_screen", {})
+    detection = [effect_against_limit(e, screen) for e in truth["effects"]]
     return {"case": f"case_{case['seed']}", "seed": case["seed"], "kind": case_kind(truth["families"]),
             "families": truth["families"], "effects": truth["effects"], "truth": truth,
             "verdict": report["verdict"], "named": [f["effect"] for f in report["findings"]],

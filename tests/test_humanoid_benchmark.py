@@ -182,10 +182,11 @@ def test_a_case_measures_its_own_memory_peak_not_what_its_worker_needed_before()
     resident = before - big.nbytes / 2 ** 20
     del big
     _start_case_peak()
-    small = np.ones(2 ** 20)                 # 8 MiB
+    small = np.ones(2 ** 20)                 # 8 MiB, held while the peak is read
     case = _case_peak_mib()
+    del small
     assert before - case > 300
-    assert case >= resident - 50 and small.nbytes > 0
+    assert case >= resident - 50
 
 
 def test_a_silent_case_is_counted_under_the_detection_limit_only_where_the_doctor_stated_one_above_it():

@@ -15,6 +15,8 @@ from pneumatics.recording import Recording
 
 from identification.base.reporting import jsonable, with_error
 
+from .output_error import MIN_TRAIN_GAIN, OFFSET_MIN_T, OUTPUT_ERROR_MIN_T
+
 
 def summary(report: dict) -> str:
     d = report["diagnostics"]
@@ -225,10 +227,11 @@ def detection_lines(screen: dict) -> list[str]:
         return []
     lines = ["", "## What the recordings could show at the joints", "",
              "The smallest effect of each family the rules could name at a joint on these recordings (the "
-             "larger of 8 standard errors of the screen's fit -- 4 for a pressure offset, on the joint's "
-             "cylinder -- and the size that would remove the screen's training-gain floor of the joint's "
-             "replayed-angle error; approximate: that error taken as independent of the effect). A joint "
-             "with nothing named may still carry an effect below its limit.", "",
+             f"larger of {OUTPUT_ERROR_MIN_T:g} standard errors of the screen's fit -- {OFFSET_MIN_T:g} for a "
+             "pressure offset, on the joint's cylinder -- and the size that would remove the screen's "
+             f"training-gain floor, at least {MIN_TRAIN_GAIN:g}, of the joint's replayed-angle error; "
+             "approximate: that error taken as independent of the effect). A joint with nothing named may "
+             "still carry an effect below its limit.", "",
              "| family | parameter | median | smallest (joint) | largest (joint) |", "| --- | --- | --- | --- | --- |"]
     for fam, s in rows:
         lim = s["detection_limit"]
