@@ -92,10 +92,12 @@ def test_a_pressure_sensor_offset_is_named_by_the_force_it_fakes_and_taken_out_o
     the replays driven by the measured pressures: the screen finds it on the cylinder, the fit
     gives its size, and once named the chamber model takes it out of the readings (the pressure
     replays' own search left out, as where the calibration takes such an offset up)."""
+    from identification.doctor.valve_arm.final_fit import withdraw_worsening
     from identification.doctor.valve_arm.output_error import search_output_error
     from pneumatics.effects.effect_set import EffectSet
 
     run = _held_nominal_run(EffectSet(pressure_offset_pa={"elbow.a": 6000.0}), seed=33, pneumatic_search=False)
+    without = run.mods
     search_output_error(run, lambda m: None)
     (f,) = [f for f in run.findings if f.output_error]
     assert f.family == "pressure_sensor_offset" and f.where["actuator"] == "elbow"
@@ -108,6 +110,12 @@ def test_a_pressure_sensor_offset_is_named_by_the_force_it_fakes_and_taken_out_o
     assert abs(value) >= 8 * f.params["offset_pa"]["stderr"]
     assert run.mods.sensor_offset_pa[c] == pytest.approx(value)
     assert f.angle_replay["after"] <= KEEP_RATIO * f.angle_replay["before"]
+    # withdrawn (as the final replays may withdraw it), the offset leaves the readings and the
+    # chambers are calibrated again without it: back to the calibration before it was named
+    withdraw_worsening(run, f, why="withdrawn by the test")
+    assert f not in run.findings and run.mods.sensor_offset_pa[c] == 0.0
+    for scale in ("supply_scale", "exhaust_scale", "dead_volume_scale"):
+        assert getattr(run.mods, scale) == pytest.approx(getattr(without, scale), rel=0.01)
 
 
 # whole doctor searches of ~5-10 s each: slow for CI's 15 minutes; the named friction above

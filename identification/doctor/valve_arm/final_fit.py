@@ -123,8 +123,10 @@ def withdraw_worsening(run: DoctorRun, f, why: str | None = None) -> None:
         return
     run.withdrawn.append({"effect": f.family, "where": f.where, "final_parameters": dict(f.params), "why": why})
     run.findings.remove(f)
-    if f.output_error and f.family == "pressure_sensor_offset":  # its offset left the chamber model
-        run.mods = without_chamber_terms(run.mods, f.replay_terms)
+    if f.output_error and f.family == "pressure_sensor_offset":
+        # its offset leaves the chamber model, and the chambers are calibrated again without it:
+        # output_error.take_offset calibrated them beside it
+        run.mods, run.cfit = fit_chambers(run.exp, run.win, without_chamber_terms(run.mods, f.replay_terms), run.sigma)
         run.td, run.td_h = corrected_torque_data(run, run.mods)
     drop_torque_terms(run, [f.scored.hyp])
 

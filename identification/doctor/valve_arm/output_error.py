@@ -39,7 +39,6 @@ friction 0.0233 N m s/rad (true 0.0259), held-out NRMSE ratio 0.35.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -416,9 +415,8 @@ def placed_offset(run: DoctorRun, best: OutputErrorFit, fits: list) -> tuple:
     act = best.scored.hyp.where["actuator"]
     pair = {f.scored.hyp.where["chamber"]: f for f in fits if f.scored.hyp.family == "pressure_sensor_offset"
             and f.scored.hyp.where["actuator"] == act}
-    for f in pair.values():  # the values offset_chamber_choice puts into each chamber's sensor
-        f.scored.fit = SimpleNamespace(values=f.values, stderr=f.stderr)
-    chamber, alternatives = offset_chamber_choice(run, act, {ch: f.scored for ch, f in pair.items()})
+    offsets = {ch: (f.scored.hyp, f.values) for ch, f in pair.items()}
+    chamber, alternatives = offset_chamber_choice(run, act, offsets)
     chosen = pair.get(chamber or "a", best)
     where = {"actuator": act} if chamber is None else {"actuator": act, "chamber": chamber}
     places = [{"actuator": act, "chamber": ch} for ch in sorted(pair)] if chamber is None or alternatives else []

@@ -73,7 +73,8 @@ def offset_place(run: DoctorRun, finding: Finding, scored: list) -> Finding:
     form = [p[0] for p in finding.scored.hyp.params]  # the constant or the drifting offset
     cands = {s.hyp.where["chamber"]: s for s in scored if s.hyp.family == "pressure_sensor_offset"
              and s.hyp.where["actuator"] == act and [p[0] for p in s.hyp.params] == form}
-    chamber, alternatives = offset_chamber_choice(run, act, cands, drifting=len(form) > 1)
+    offsets = {ch: (s.hyp, s.fit.values[-len(form):]) for ch, s in cands.items()}
+    chamber, alternatives = offset_chamber_choice(run, act, offsets, drifting=len(form) > 1)
     primary = cands.get(chamber or "a", finding.scored)
     where = {"actuator": act} if chamber is None else {"actuator": act, "chamber": chamber}
     f = Finding(primary, primary.hyp.family, where, finding_params(primary), primary.heldout_gain,
@@ -86,20 +87,19 @@ def offset_place(run: DoctorRun, finding: Finding, scored: list) -> Finding:
     return f
 
 
-def offset_chamber_choice(run: DoctorRun, act: str, cands: dict, drifting: bool = False) -> tuple:
+def offset_chamber_choice(run: DoctorRun, act: str, offsets: dict, drifting: bool = False) -> tuple:
     """(the chamber of actuator ``act`` named, or None; the chambers left as alternative places)
     for a force error of its cylinder that a sensor offset on either chamber explains
-    (``cands``: chamber -> a Scored offset term whose ``fit.values`` end with that chamber's
-    offset): :func:`offset_chamber` first, then :func:`fixed_offset_evidence` (offset_place's
-    rules)."""
+    (``offsets``: chamber -> (its offset hypothesis, the offset's values there)):
+    :func:`offset_chamber` first, then :func:`fixed_offset_evidence` (offset_place's rules)."""
     chamber, alternatives = offset_chamber(run, act, drifting=drifting), []
-    if chamber is None and len(cands) > 1:
-        gains, departure = fixed_offset_evidence(run, cands)
+    if chamber is None and len(offsets) > 1:
+        gains, departure = fixed_offset_evidence(run, offsets)
         by_gain, nearest = max(gains, key=gains.get), min(departure, key=departure.get)
         clear = all(d >= DEPARTURE_RATIO * departure[nearest] for ch, d in departure.items() if ch != nearest)
         chamber = nearest if clear else by_gain
         if by_gain != nearest or any(g > gains[chamber] - OFFSET_MARGIN for ch, g in gains.items() if ch != chamber):
-            alternatives = sorted(cands)
+            alternatives = sorted(offsets)
     return chamber, alternatives
 
 
@@ -112,21 +112,20 @@ def calibration_departure(mods: PneumaticMods, chambers=None) -> float:
     return float(np.sum(np.log(scales) ** 2))
 
 
-def fixed_offset_evidence(run: DoctorRun, cands: dict) -> tuple[dict, dict]:
+def fixed_offset_evidence(run: DoctorRun, offsets: dict) -> tuple[dict, dict]:
     """(chamber -> held-out gain of its replay (1 - mean square ratio), chamber ->
-    :func:`calibration_departure`) with the offset the torque balance fitted for that chamber
-    (``cands``: chamber -> its scored torque-balance term) taken out of its sensor and the
+    :func:`calibration_departure`) with the offset fitted for that chamber (``offsets``:
+    chamber -> (its offset hypothesis, the offset's values)) taken out of its sensor and the
     chamber calibration refitted on the training windows.  No offset is fitted here: a chamber
     whose sensor is right is made worse by the other's offset.  The departure counts the
     cylinder's own chambers: the others' residuals do not see the offset, and on a robot with
     many chambers their refits' small differences would add up to more than the cylinder's."""
     base = chamber_rms(run.held, run.win_h, run.mods)
-    cylinder = [s.hyp.chambers[0] for s in cands.values()]
+    cylinder = [h.chambers[0] for h, _ in offsets.values()]
     gains, departure = {}, {}
-    for ch, s in cands.items():
-        k, c = len(s.hyp.params), s.hyp.chambers[0]
-        mods, _ = fit_chambers(run.exp, run.fit_win, offset_of_term(run.mods, s.hyp, s.fit.values[-k:], base.size),
-                               run.sigma)
+    for ch, (h, values) in offsets.items():
+        c = h.chambers[0]
+        mods, _ = fit_chambers(run.exp, run.fit_win, offset_of_term(run.mods, h, values, base.size), run.sigma)
         gains[ch] = 1.0 - (chamber_rms(run.held, run.win_h, mods)[c] / max(base[c], 1e-300)) ** 2
         departure[ch] = calibration_departure(mods, cylinder)
     return gains, departure
