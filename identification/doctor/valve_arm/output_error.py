@@ -22,11 +22,13 @@ cluster-robust with the replay windows as clusters (Liang & Zeger, Biometrika 73
 window's errors are one draw, not H.
 
 1. **Screen** (:func:`screened`): one replay per parameter and group of joints no one of which
-   is an ancestor of another (:func:`joint_levels`; 3 x 11 replays of a third of the training
-   windows on humanoid38), every joint probed at once; each joint's family fitted on its own
-   angle from them.
-2. **Fit** (:func:`fit_by_output_error`): the candidates that pass the screen, alone, from
-   their screened values (k replays for k parameters; a Coulomb friction also as a stiction).
+   is an ancestor of another (:func:`joint_levels`; 5 x 11 replays of a third of the training
+   windows on humanoid38, one of them the subtree masses'), every joint probed at once; each
+   joint's family fitted on its own angle from them (a pressure-sensor offset beside its
+   joint's subtree mass, mass_nuisance).
+2. **Fit** (:func:`fit_by_output_error`): the candidates that pass the screen, alone (an
+   offset beside its subtree mass), from their screened values (k replays for k parameters, one
+   more for the mass; a Coulomb friction also as a stiction).
 3. **Name** (:func:`search_output_error`): a fit whose values are physical and OUTPUT_ERROR_MIN_T
    cluster-robust errors from zero, that removes MIN_TRAIN_GAIN of its joint's training angle
    error and replays its joint's held-out angle at most KEEP_RATIO times the NRMSE without it;
@@ -56,6 +58,7 @@ from .angle_replay import (
 )
 from .calibrate import fit_chambers
 from .hypotheses import mechanical_hypotheses
+from .mass_nuisance import mass_sensitivity, partialled
 from .replay import MechMods, window_starts
 from .mechanics import fit_rigid_body
 from .regimes import joint_regimes
@@ -113,6 +116,9 @@ OUTPUT_ERROR_MIN_T = 8.0
 #: their joint's training angle error (the jaw's, 0.11-0.18) or replayed its held-out angle
 #: worse (right_hip_roll, 98 errors, ratio 1.03)
 OFFSET_MIN_T = MIN_T
+#: the families fitted beside the mass of their joint's subtree (mass_nuisance): a constant
+#: force, which a held-nominal body's mass error fakes where the joint's gravity torque varies little
+MASS_NUISANCE = ("pressure_sensor_offset",)
 #: a candidate is named when it replays its joint's held-out angle at most this many times the
 #: NRMSE without it (a tenth of the mean square removed)
 KEEP_RATIO = 0.95
@@ -190,8 +196,9 @@ def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
                         base_q: np.ndarray) -> OutputErrorFit | None:
     """Candidate ``s`` (a Scored hypothesis) fitted on its joint's training angle: the
     replay's change for each parameter's probe ``step`` (k,), one Gauss-Newton step from zero
-    (``base_q``: the training replay of ``base_mm``, every TRAIN_EVERY-th window).  None when
-    the replays do not move the angle in k directions."""
+    (``base_q``: the training replay of ``base_mm``, every TRAIN_EVERY-th window), beside its
+    joint's subtree mass for a family of MASS_NUISANCE.  None when the replays do not move the
+    angle in k directions."""
     h, exp = s.hyp, run.exp
     rows = window_rows(exp, TRAIN_EVERY)
     cols = []
@@ -203,6 +210,11 @@ def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
     A = np.stack(cols, axis=-1)                                            # (W, H, k)
     r = exp.q[rows, h.joint] - base_q[rows, h.joint]                       # (W, H)
     ok = np.all(np.isfinite(A), axis=(1, 2)) & np.all(np.isfinite(r), axis=1)
+    if h.family in MASS_NUISANCE:
+        nuisance = mass_sensitivity(exp, run, base_mm, base_q[rows], [h.joint], TRAIN_EVERY, rows)[:, :, h.joint]
+        ok &= np.all(np.isfinite(nuisance), axis=1)
+        cols = [partialled(A[ok, :, i], nuisance[ok], r[ok]) for i in range(A.shape[-1])]
+        A, r, ok = np.stack([a for a, _ in cols], axis=-1), cols[0][1], np.ones(int(ok.sum()), bool)
     step_fit = gauss_newton_step(A[ok], r[ok])
     return None if step_fit is None else OutputErrorFit(s, *step_fit)
 
@@ -248,7 +260,8 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
     """[(Scored hypothesis, probe step (k,))] worth their own fit: every joint's
     SCREEN_FAMILIES fitted on its training angle from the sensitivities of one replay per
     parameter and group of :func:`joint_levels` (every joint of the group probed at once:
-    4 x 11 replays on humanoid38 instead of 4 x 38), those that remove SCREEN_GAIN of it with
+    4 x 11 replays on humanoid38 instead of 4 x 38, and 11 of the subtree masses, the nuisance
+    of MASS_NUISANCE's families: :func:`joint_data`), those that remove SCREEN_GAIN of it with
     a physical, significant value, best first, each Coulomb friction followed by the stiction
     at its joint; at most MAX_CANDIDATES places."""
     robot, exp, J = run.robot, run.exp, len(run.robot.joint_names)
@@ -267,16 +280,22 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
                 q = replayed(exp, run, base_mm, terms, every=SCREEN_EVERY)[rows]
                 for j in probed:
                     sens[:, :, j] = (q[:, :, j] - base[:, :, j]) / steps[param][j]
+        nuisance = None
+        if family in MASS_NUISANCE:  # each joint's subtree mass, probed a level at a time
+            nuisance = np.full(base.shape, np.nan)
+            for level in joint_levels(robot):
+                got = mass_sensitivity(exp, run, base_mm, base, level, SCREEN_EVERY, rows)
+                nuisance[:, :, level] = got[:, :, level]
+        data = [joint_data(sens[:, :, j], r[:, :, j], None if nuisance is None else nuisance[:, :, j]) for j in range(J)]
         fits = []
-        for j in range(J):
-            ok = np.all(np.isfinite(sens[:, :, j]), axis=1) & np.all(np.isfinite(r[:, :, j]), axis=1)
-            got = None if (family, j) not in hyps else gauss_newton_step(sens[ok, :, j, None], r[ok, :, j])
+        for j, (s_j, r_j) in enumerate(data):
+            got = None if (family, j) not in hyps else gauss_newton_step(s_j[:, :, None], r_j)
             fits.append(None if got is None else OutputErrorFit(Scored(hyps[(family, j)], got[2]), *got))
         # what a joint's mismatch gives this family anyway: the gains of its physical fits at
         # every joint (an unphysical one counts as none), whose spread a true effect stands out of
         gains = [f.train_gain if f is not None and physical(f, tested=False) else 0.0 for f in fits]
         floor = max(SCREEN_GAIN, robust_ceiling(gains))
-        limits = {robot.joint_names[j]: detection_limit(sens[:, :, j], r[:, :, j], f, family, floor)
+        limits = {robot.joint_names[j]: detection_limit(*data[j], f, family, floor)
                   for j, f in enumerate(fits) if f is not None}
         limits = {j: v for j, v in limits.items() if np.isfinite(v)}   # a joint the probe did not move: none
         run.output_error_screen[family] = {"floor": floor, "gains": dict(zip(robot.joint_names, gains)),
@@ -296,22 +315,32 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
     return out
 
 
+def joint_data(sens: np.ndarray, r: np.ndarray, nuisance: np.ndarray | None = None) -> tuple:
+    """(sensitivity, residual), each (W', H), of the windows where both (and the ``nuisance``'s
+    sensitivity, if given) are finite; with a nuisance, each taken off its projection on it
+    (mass_nuisance.partialled)."""
+    ok = np.all(np.isfinite(sens), axis=1) & np.all(np.isfinite(r), axis=1)
+    if nuisance is None:
+        return sens[ok], r[ok]
+    ok &= np.all(np.isfinite(nuisance), axis=1)
+    return partialled(sens[ok], nuisance[ok], r[ok])
+
+
 def detection_limit(sens: np.ndarray, r: np.ndarray, fit: OutputErrorFit, family: str, floor: float) -> float:
     """The smallest size of ``family``'s parameter at a joint that the rules could name there
     on this recording: the larger of (a) the value standing the naming rule's t (significant)
     from zero at the screen's cluster-robust standard error, and (b) the value whose replayed
     change removes the larger of the screen's ``floor`` and MIN_TRAIN_GAIN of the joint's
     training angle mean square, were the rest of that error (the replay's mismatch, ``r``
-    (W, H) at the screen's windows) independent of it: a change of size theta with signature
+    (W, H) at the screen's windows, :func:`joint_data`'s) independent of it: a change of size theta with signature
     ``sens`` (W, H) removes g = |S theta|^2 / (|S theta|^2 + |r|^2), so theta = sqrt(g / (1 - g))
     |r| / |S|.  Below it a silent joint is no evidence that the effect is absent: the recording
     cannot show it through this replay.  An approximation (the screen's errors, the mismatch
     taken as independent), stated as such in the report."""
     t = OFFSET_MIN_T if family == "pressure_sensor_offset" else OUTPUT_ERROR_MIN_T
     g = max(floor, MIN_TRAIN_GAIN)
-    ok = np.all(np.isfinite(sens), axis=1) & np.all(np.isfinite(r), axis=1)
-    s_norm = float(np.sqrt(np.sum(sens[ok] ** 2)))
-    by_gain = np.sqrt(g / (1.0 - g)) * float(np.sqrt(np.sum(r[ok] ** 2))) / s_norm if s_norm > 0 else np.inf
+    s_norm = float(np.sqrt(np.sum(sens ** 2)))
+    by_gain = np.sqrt(g / (1.0 - g)) * float(np.sqrt(np.sum(r ** 2))) / s_norm if s_norm > 0 else np.inf
     return float(max(t * float(fit.stderr[0]), by_gain))
 
 

@@ -1,0 +1,76 @@
+"""A constant force fitted beside its joint's subtree mass (identification/doctor/valve_arm/
+mass_nuisance.py): partialling the nuisance out gives the joint fit's value and cluster-robust
+error (Frisch-Waugh-Lovell), a force error the mass explains loses its significance, and one it
+does not explain keeps it."""
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from identification.doctor.valve_arm.mass_nuisance import partialled, subtree_bodies, with_subtree_masses
+from identification.doctor.valve_arm.output_error import gauss_newton_step, joint_data
+from identification.doctor.valve_arm.replay import MechMods
+
+
+def _windows(rng, W=120, H=20):
+    """A gravity-like nuisance (a level per window, slowly varying) and a constant force's
+    sensitivity that resembles it (the replays' answer to both grows over a window)."""
+    t = np.linspace(0, 1, H)[None]
+    level = 1.0 + 0.3 * rng.normal(size=(W, 1))
+    nuisance = level * t
+    force = (1.0 + 0.05 * rng.normal(size=(W, 1))) * t + 0.02 * rng.normal(size=(W, H))
+    return force, nuisance, rng.normal(0, 0.05, (W, 1)) * t + rng.normal(0, 0.01, (W, H))
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2 ** 31), theta=st.floats(-2, 2), mass=st.floats(-2, 2))
+def test_partialling_out_gives_the_joint_fits_value_and_error(seed, theta, mass):
+    rng = np.random.default_rng(seed)
+    force, nuisance, noise = _windows(rng)
+    r = theta * force + mass * nuisance + noise
+    joint = gauss_newton_step(np.stack([force, nuisance], axis=-1), r)
+    a, rr = partialled(force, nuisance, r)
+    alone = gauss_newton_step(a[..., None], rr)
+    assert alone[0][0] == pytest.approx(joint[0][0], rel=1e-9, abs=1e-12)
+    assert alone[1][0] == pytest.approx(joint[1][0], rel=1e-9, abs=1e-12)
+
+
+def test_a_force_error_the_mass_explains_loses_its_significance_and_a_true_one_keeps_it():
+    rng = np.random.default_rng(3)
+    force, nuisance, noise = _windows(rng)
+    from_mass = 0.5 * nuisance + noise          # the body's mass error, no offset
+    naive = gauss_newton_step(force[..., None], from_mass)
+    beside = gauss_newton_step(*_as_fit(joint_data(force, from_mass, nuisance)))
+    assert abs(naive[0][0] / naive[1][0]) > 8          # alone, a "significant" offset ...
+    assert abs(beside[0][0] / beside[1][0]) < 4        # ... which the mass beside it takes up
+    true = 0.5 * force + 0.1 * nuisance + noise
+    beside = gauss_newton_step(*_as_fit(joint_data(force, true, nuisance)))
+    assert beside[0][0] == pytest.approx(0.5, rel=0.2) and abs(beside[0][0] / beside[1][0]) > 8
+
+
+def _as_fit(data):
+    s, r = data
+    return s[..., None], r
+
+
+def test_windows_with_a_missing_replay_are_left_out_and_a_silent_nuisance_changes_nothing():
+    rng = np.random.default_rng(4)
+    force, nuisance, noise = _windows(rng)
+    r = force * 0.3 + noise
+    nuisance[5, 3] = np.nan
+    s, rr = joint_data(force, r, nuisance)
+    assert s.shape == (force.shape[0] - 1, force.shape[1]) and np.all(np.isfinite(s))
+    s0, r0 = joint_data(force, r, np.zeros_like(force))
+    assert np.array_equal(s0, force) and np.array_equal(r0, r)
+
+
+def test_a_joints_subtree_is_the_bodies_it_moves():
+    from pneumatics.robot import load_robot
+
+    robot = load_robot("arm2")
+    m = robot.model
+    shoulder, elbow = (subtree_bodies(m, n) for n in robot.joint_names)
+    assert set(elbow) < set(shoulder) and elbow
+    assert all(m.body_mass[m.body(b).id] > 0 for b in shoulder)
+    mm = with_subtree_masses(MechMods(), m, robot.joint_names, [1], 0.03)
+    assert mm.mass_scale == {b: 0.03 for b in elbow} and MechMods().mass_scale == {}
