@@ -228,7 +228,7 @@ def detection_lines(screen: dict) -> list[str]:
     lines = ["", "## What the recordings could show at the joints", "",
              "The smallest effect of each family the rules could name at a joint on these recordings (the "
              f"larger of {OUTPUT_ERROR_MIN_T:g} standard errors of the screen's fit -- {OFFSET_MIN_T:g} for a "
-             "pressure offset, on the joint's cylinder -- and the size that would remove the screen's "
+             "pressure offset, on the joint's cylinder and beside its subtree's mass -- and the size that would remove the screen's "
              f"training-gain floor, at least {MIN_TRAIN_GAIN:g}, of the joint's replayed-angle error; "
              "approximate: that error taken as independent of the effect). A joint with nothing named may "
              "still carry an effect below its limit.", "",
