@@ -160,7 +160,7 @@ TRUTH_SIZE = {"coulomb_friction": ("friction", "coulomb_nm"), "viscous_friction"
 
 def effect_against_limit(effect: dict, screen: dict) -> dict:
     """{family, size, limit}: a hidden effect's size and the smallest one the doctor said these
-    recordings could show at its place (output_error.detection_limit); limit None where the
+    recordings could show at its place (output_error_screen.detection_limit); limit None where the
     doctor stated none (a family or place the output-error screen does not fit, or the screen
     did not run: the rigid body's calibration was kept)."""
     fam, where = effect["family"], effect["where"]

@@ -8,7 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from identification.doctor.valve_arm.mass_nuisance import partialled, subtree_bodies, with_subtree_masses
-from identification.doctor.valve_arm.output_error import gauss_newton_step, joint_data
+from identification.doctor.valve_arm.output_error_fit import gauss_newton_step
+from identification.doctor.valve_arm.output_error_screen import joint_data
 from identification.doctor.valve_arm.replay import MechMods
 
 

@@ -5,7 +5,8 @@ with its value, a null recording gets nothing."""
 import numpy as np
 import pytest
 
-from identification.doctor.valve_arm.output_error import KEEP_RATIO, gauss_newton_step
+from identification.doctor.valve_arm.output_error import KEEP_RATIO
+from identification.doctor.valve_arm.output_error_fit import gauss_newton_step
 
 
 def _windows(rng, W=150, H=20, theta=0.3, window_sd=1.0, row_sd=0.3):
@@ -162,8 +163,8 @@ def test_an_effect_over_its_detection_limit_passes_the_naming_rules_and_one_well
     """The detection limit stated from a recording's replay mismatch alone: the same mismatch
     with an effect of twice that size added gives a fit the significance and gain rules name;
     a third of it, one they refuse."""
-    from identification.doctor.valve_arm.output_error import (
-        MIN_TRAIN_GAIN, OUTPUT_ERROR_MIN_T, OutputErrorFit, detection_limit)
+    from identification.doctor.valve_arm.output_error_fit import MIN_TRAIN_GAIN, OUTPUT_ERROR_MIN_T, OutputErrorFit
+    from identification.doctor.valve_arm.output_error_screen import detection_limit
 
     rng = np.random.default_rng(5)
     for _ in range(20):

@@ -15,7 +15,7 @@ from pneumatics.recording import Recording
 
 from identification.base.reporting import jsonable, with_error
 
-from .output_error import MIN_TRAIN_GAIN, OFFSET_MIN_T, OUTPUT_ERROR_MIN_T
+from .output_error_fit import MIN_TRAIN_GAIN, OFFSET_MIN_T, OUTPUT_ERROR_MIN_T
 
 
 def summary(report: dict) -> str:
@@ -209,7 +209,7 @@ def change(before: float, after: float) -> str:
 
 def detection_medians(screen: dict) -> list[tuple[str, str, float]]:
     """[(family, parameter, median over the joints of its detection limit)] of the output-error
-    screen (output_error.detection_limit), the families whose limits are finite."""
+    screen (output_error_screen.detection_limit), the families whose limits are finite."""
     out = []
     for family, s in screen.items():
         v = list(s.get("detection_limit", {}).values())

@@ -139,7 +139,7 @@ class DoctorRun:
     final_rfit: Fit | None = None
     """the final joint fit (calibration and every kept term)"""
     output_error_screen: dict = field(default_factory=dict)
-    """family -> the output-error screen's floor and each joint's training gain (output_error.screened)"""
+    """family -> the output-error screen's floor and each joint's training gain (output_error_screen.screened)"""
     output_error_candidates: list = field(default_factory=list)
     """every candidate fitted by output error, round by round, with its verdict (output_error.candidate_record)"""
     finals: list = field(default_factory=list)
