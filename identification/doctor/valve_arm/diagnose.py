@@ -15,6 +15,7 @@ Workflow (issue "The mismatch finder"):
 """
 from __future__ import annotations
 
+import copy
 import time
 
 import numpy as np
@@ -135,6 +136,7 @@ def _calibrated_run(robot: Robot, recordings, holdouts, say) -> tuple[DoctorRun,
     mods, cfit = fit_chambers(exp, win, nominal, sigma)
     say("calibrating the rigid body (masses, damping, armature)")
     td, td_h = torque_data(exp), torque_data(held)
+    fresh_torque = ((copy.copy(td), exp), (copy.copy(td_h), held))   # before calibration mutates them
     rfit = fit_rigid_body(td)
     body_check = body_calibration_check(held, mods, rfit)
     if not body_check["kept"]:
@@ -148,6 +150,7 @@ def _calibrated_run(robot: Robot, recordings, holdouts, say) -> tuple[DoctorRun,
                     fit_win=Windows.tile(len(exp.t), HORIZON, stride=2 * HORIZON, breaks=exp.breaks),
                     win_h=Windows.tile(len(held.t), HORIZON, breaks=held.breaks),
                     sigma=sigma, nominal=nominal, mods=mods, cfit=cfit, td=td, td_h=td_h, rfit=rfit,
+                    fresh_torque=fresh_torque,
                     body_check=body_check)
     say("a twin of the recordings from the calibrated chambers (each chamber's flexible-correction floor)")
     run.twin_gains, run.twin_supply_in_time = twin_gains(exp, held, mods, sigma, block_samples(held))

@@ -256,6 +256,22 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
     return td
 
 
+def with_pressures(td: TorqueData, made_from: Experiment, exp: Experiment, held_nominal: str = "") -> TorqueData | None:
+    """torque_data(exp) derived from ``td`` = torque_data(made_from), when ``exp`` is the same
+    motion of the same robot read with other pressures (sensor_offsets.corrected shares the angle
+    arrays); None otherwise.  The force law is linear in the pressures (chamber.py: F = A_a p_a -
+    A_b p_b - (A_a - A_b) p_room), so the actuator torques change by dtau_dp . (p - p_before)
+    and nothing else changes: the inverse dynamics, its regressors and derivatives depend on the
+    motion alone (on humanoid38 about 190 passes over the recording, 20 s each time).  Masked
+    rows stay zero in both terms."""
+    same = (exp.robot is made_from.robot and exp.q_s is made_from.q_s and exp.qd is made_from.qd
+            and exp.qdd is made_from.qdd)
+    if not same or td.fixed is not None or td.calibration is not None:
+        return None
+    tau_act = td.tau_act + np.einsum("njc,nc->nj", td.dtau_dp, exp.p - made_from.p)
+    return replace(td, tau_act=tau_act, held_nominal=held_nominal)
+
+
 def coupled_joints(model, dof_index: np.ndarray) -> np.ndarray:
     """(J, J) bool: joints j and k share mass-matrix entries (one's dof is an ancestor of the
     other's in the kinematic tree, MuJoCo's dof_parentid), or j == k."""

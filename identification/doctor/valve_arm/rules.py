@@ -110,6 +110,9 @@ class DoctorRun:
     """the rigid body's calibration fit"""
     findings: list = field(default_factory=list)
     """Findings kept so far, in the order they were found"""
+    fresh_torque: tuple = None
+    """((torque data, its experiment), the same of the held-out data) as first made, before any
+    calibration or correction: what mechanics.with_pressures derives a pressure-corrected copy from"""
     read: tuple = None
     """(training, held-out) experiments with the actuator lengths of the angles as read and the
     chamber model calibrated on them, kept while ``exp``, ``held`` and ``mods`` take the lengths

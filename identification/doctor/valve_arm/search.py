@@ -16,7 +16,7 @@ from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses, smooth_torq
 from .angle_replay import angle_rule_verdict, yardstick_angle
 from .calibrate import SCALE_BOUND
 from .compliance import compliant_wall, wall_alternative
-from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data
+from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data, with_pressures
 from .naming import friction_named, line_named
 from .rules import (
     END_STOP_HYPOTHESES,
@@ -156,10 +156,15 @@ def close_place(run: DoctorRun, finding: Finding, scored: list) -> None:
 def corrected_torque_data(run: DoctorRun, mods) -> tuple:
     """(fitting, held-out) torque data of the run's recordings with the sensor offsets of
     ``mods`` taken out of the measured pressures, the rigid body held nominal or not as the
-    run's torque data are (``td.held_nominal``)."""
+    run's torque data are (``td.held_nominal``); derived from the run's first torque data where
+    the motion is the same (mechanics.with_pressures)."""
     hold = run.td.held_nominal
-    return (torque_data(corrected(run.exp, mods), held_nominal=hold),
-            torque_data(corrected(run.held, mods), held_nominal=hold))
+    out = []
+    for i, exp in enumerate((run.exp, run.held)):
+        exp_c = corrected(exp, mods)
+        derived = None if run.fresh_torque is None else with_pressures(*run.fresh_torque[i], exp_c, hold)
+        out.append(torque_data(exp_c, held_nominal=hold) if derived is None else derived)
+    return tuple(out)
 
 
 def offset_seen_by_torque_balance(run: DoctorRun, finding: Finding) -> bool:
