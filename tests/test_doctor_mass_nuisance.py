@@ -34,6 +34,11 @@ def test_partialling_out_gives_the_joint_fits_value_and_error(seed, theta, mass)
     alone = gauss_newton_step(a[..., None], rr)
     assert alone[0][0] == pytest.approx(joint[0][0], rel=1e-9, abs=1e-12)
     assert alone[1][0] == pytest.approx(joint[1][0], rel=1e-9, abs=1e-12)
+    # a fit of k parameters: each column partialled on its own, the residual once
+    cols, r2 = partialled(np.stack([force, 2.0 * force + nuisance], axis=-1), nuisance, r)
+    np.testing.assert_allclose(cols[..., 0], a, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(cols[..., 1], partialled(2.0 * force + nuisance, nuisance, r)[0], rtol=1e-9, atol=1e-9)
+    np.testing.assert_array_equal(r2, rr)
 
 
 def test_a_force_error_the_mass_explains_loses_its_significance_and_a_true_one_keeps_it():

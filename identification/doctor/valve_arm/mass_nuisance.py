@@ -69,9 +69,12 @@ def mass_sensitivity(exp, run, mm: MechMods, base_q: np.ndarray, joints, every: 
 
 
 def partialled(a: np.ndarray, nuisance: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(a, r) each taken off its least-squares projection on ``nuisance`` (all (W, H)): what the
-    nuisance cannot explain.  A nuisance that does not move the angle leaves both as they are."""
+    """(a, r) each taken off its least-squares projection on ``nuisance`` (W, H): what the
+    nuisance cannot explain; ``a`` (W, H) or (W, H, k), each of its k columns on its own, ``r``
+    (W, H).  A nuisance that does not move the angle leaves both as they are."""
     nn = float(np.sum(nuisance ** 2))
     if not np.isfinite(nn) or nn <= 0:
         return a, r
-    return a - nuisance * (float(np.sum(nuisance * a)) / nn), r - nuisance * (float(np.sum(nuisance * r)) / nn)
+    n_a = nuisance.reshape(nuisance.shape + (1,) * (a.ndim - 2))
+    return (a - n_a * (np.sum(n_a * a, axis=(0, 1)) / nn),
+            r - nuisance * (float(np.sum(nuisance * r)) / nn))

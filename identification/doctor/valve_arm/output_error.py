@@ -56,11 +56,10 @@ from .calibrate import fit_chambers
 from .mechanics import fit_rigid_body
 from .output_error_fit import (
     MIN_TRAIN_GAIN,
-    OFFSET_MIN_T,
-    OUTPUT_ERROR_MIN_T,
     TRAIN_EVERY,
     OutputErrorFit,
     fit_by_output_error,
+    naming_t,
     physical,
     replayed,
     significant,
@@ -116,7 +115,7 @@ def search_output_error(run: DoctorRun, say) -> None:
 
 def refusal(f: OutputErrorFit) -> str:
     """Why candidate ``f`` was not named, in the rules' own terms ('' when every rule passed)."""
-    t = OFFSET_MIN_T if f.scored.hyp.family == "pressure_sensor_offset" else OUTPUT_ERROR_MIN_T
+    t = naming_t(f.scored.hyp.family)
     if f.train_gain < MIN_TRAIN_GAIN:
         return f"removes {f.train_gain:.2f} of its joint's training angle error, under {MIN_TRAIN_GAIN}"
     if not physical(f, tested=False):

@@ -82,7 +82,6 @@ def window_rows(exp, every: int) -> np.ndarray:
     return rows[np.all(rows < len(exp.t), axis=1)]
 
 
-
 def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
                         base_q: np.ndarray) -> OutputErrorFit | None:
     """Candidate ``s`` (a Scored hypothesis) fitted on its joint's training angle: the
@@ -101,12 +100,14 @@ def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
     A = np.stack(cols, axis=-1)                                            # (W, H, k)
     r = exp.q[rows, h.joint] - base_q[rows, h.joint]                       # (W, H)
     ok = np.all(np.isfinite(A), axis=(1, 2)) & np.all(np.isfinite(r), axis=1)
+    nuisance = None
     if h.family in MASS_NUISANCE:
         nuisance = mass_sensitivity(exp, run, base_mm, base_q[rows], [h.joint], TRAIN_EVERY, rows)[:, :, h.joint]
         ok &= np.all(np.isfinite(nuisance), axis=1)
-        cols = [partialled(A[ok, :, i], nuisance[ok], r[ok]) for i in range(A.shape[-1])]
-        A, r, ok = np.stack([a for a, _ in cols], axis=-1), cols[0][1], np.ones(int(ok.sum()), bool)
-    step_fit = gauss_newton_step(A[ok], r[ok])
+    A, r = A[ok], r[ok]
+    if nuisance is not None:
+        A, r = partialled(A, nuisance[ok], r)
+    step_fit = gauss_newton_step(A, r)
     return None if step_fit is None else OutputErrorFit(s, *step_fit)
 
 
@@ -139,10 +140,14 @@ def physical(fit: OutputErrorFit, tested: bool = True) -> bool:
     return inside and (not tested or passes_keep_rule(fit.values, fit.stderr))
 
 
-def significant(fit: OutputErrorFit) -> bool:
-    """Every fitted value OUTPUT_ERROR_MIN_T (a pressure-sensor offset: OFFSET_MIN_T)
-    cluster-robust standard errors from zero."""
-    se = np.asarray(fit.stderr, float)
-    t = OFFSET_MIN_T if fit.scored.hyp.family == "pressure_sensor_offset" else OUTPUT_ERROR_MIN_T
-    return bool(np.all(np.isfinite(se)) and np.all(se > 0) and np.all(np.abs(fit.values) >= t * se))
+def naming_t(family: str) -> float:
+    """How many cluster-robust standard errors from zero a named effect of ``family`` stands:
+    OUTPUT_ERROR_MIN_T, a pressure-sensor offset OFFSET_MIN_T."""
+    return OFFSET_MIN_T if family == "pressure_sensor_offset" else OUTPUT_ERROR_MIN_T
 
+
+def significant(fit: OutputErrorFit) -> bool:
+    """Every fitted value :func:`naming_t` cluster-robust standard errors from zero."""
+    se = np.asarray(fit.stderr, float)
+    t = naming_t(fit.scored.hyp.family)
+    return bool(np.all(np.isfinite(se)) and np.all(se > 0) and np.all(np.abs(fit.values) >= t * se))

@@ -13,10 +13,9 @@ from .mass_nuisance import mass_sensitivity, partialled
 from .output_error_fit import (
     MASS_NUISANCE,
     MIN_TRAIN_GAIN,
-    OFFSET_MIN_T,
-    OUTPUT_ERROR_MIN_T,
     OutputErrorFit,
     gauss_newton_step,
+    naming_t,
     physical,
     replayed,
     terms_of,
@@ -168,7 +167,7 @@ def detection_limit(sens: np.ndarray, r: np.ndarray, fit: OutputErrorFit, family
     |r| / |S|.  Below it a silent joint is no evidence that the effect is absent: the recording
     cannot show it through this replay.  An approximation (the screen's errors, the mismatch
     taken as independent), stated as such in the report."""
-    t = OFFSET_MIN_T if family == "pressure_sensor_offset" else OUTPUT_ERROR_MIN_T
+    t = naming_t(family)
     g = max(floor, MIN_TRAIN_GAIN)
     s_norm = float(np.sqrt(np.sum(sens ** 2)))
     by_gain = np.sqrt(g / (1.0 - g)) * float(np.sqrt(np.sum(r ** 2))) / s_norm if s_norm > 0 else np.inf
