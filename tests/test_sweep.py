@@ -45,6 +45,20 @@ def die_always(case):
     return stats(case)
 
 
+#: cases this worker process has run (a module global: one per process)
+_CASES_HERE = []
+
+
+def process_memory(case):
+    """The worker's pid, how many cases it ran before this one, and this case's peak resident
+    memory [MiB] after it held ``mib`` MiB (Linux's VmHWM: a process's high-water mark)."""
+    _CASES_HERE.append(case["seed"])
+    block = np.ones(int(case.get("mib", 0)) * 2**17)  # 2**17 float64 = 1 MiB, touched
+    peak = next(float(line.split()[1]) / 1024 for line in open("/proc/self/status") if line.startswith("VmHWM:"))
+    del block
+    return {"pid": os.getpid(), "before": len(_CASES_HERE) - 1, "peak_mib": peak}
+
+
 def fail_on_three(case):
     if case["seed"] == 3:
         raise ValueError(f"seed {case['seed']} is unlucky")
@@ -90,6 +104,30 @@ def test_killed_worker_loses_only_its_case_which_is_retried(backend, ray_local, 
     assert [r.attempts for r in res] == [1, 1, 2, 1, 1, 1]
     assert [r.result["mean"] for r in res] == [stats(c)["mean"] for c in cases]
     assert len(list((tmp_path / "out" / "cases").glob("*.json"))) == len(cases)
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="VmHWM is Linux's")
+@pytest.mark.parametrize("backend", ["process", "ray"])
+def test_fresh_workers_give_each_case_a_process_of_its_own(backend, request):
+    """With fresh_workers a case's process peak is its own: a small case after a 300 MiB one
+    does not inherit the large one's high-water mark, as it does in a kept worker."""
+    if backend == "ray":
+        request.getfixturevalue("ray_local")
+    cases = [{"seed": 0, "mib": 300}] + [{"seed": s} for s in range(1, 5)]
+    fresh = [r.result for r in sweep(process_memory, cases, backend=backend, workers=1, progress=False,
+                                     fresh_workers=True)]
+    assert len({r["pid"] for r in fresh}) == len(cases) and all(r["before"] == 0 for r in fresh)
+    assert fresh[0]["peak_mib"] > 300 and max(r["peak_mib"] for r in fresh[1:]) < fresh[0]["peak_mib"] - 250
+    if backend == "process":  # a kept worker runs them all, the big case's peak stays its own
+        kept = [r.result for r in sweep(process_memory, cases, backend=backend, workers=1, progress=False)]
+        assert len({r["pid"] for r in kept}) == 1
+        assert min(r["peak_mib"] for r in kept) > 300
+
+
+def test_fresh_workers_one_case_still_gets_a_worker():
+    """One case is normally run inline (no pool to share); with fresh_workers it gets a worker."""
+    res = sweep(process_memory, [{"seed": 9}], progress=False, fresh_workers=True)
+    assert res[0].result["pid"] != os.getpid() and res[0].result["before"] == 0
 
 
 def test_killed_every_time_is_reported_failed_not_dropped(tmp_path):
@@ -158,6 +196,18 @@ def test_clear_errors():
         sweep(stats, CASES, backend="ray", ray_address="127.0.0.1:1", progress=False)
     res = sweep(lambda case: [1], CASES[:1], backend="inline", retries=0, progress=False)
     assert "expected a dict" in res[0].error
+    with pytest.raises(ConfigError, match="fresh_workers=True needs worker processes; backend 'inline'"):
+        sweep(stats, CASES, backend="inline", fresh_workers=True, progress=False)
+
+
+def test_fresh_workers_from_the_environment(monkeypatch):
+    from workflow.sweep.api import options_from_env
+
+    monkeypatch.setenv("PNEUMASIM_FRESH_WORKERS", "1")
+    assert options_from_env()["fresh_workers"] is True
+    monkeypatch.setenv("PNEUMASIM_FRESH_WORKERS", "yes")
+    with pytest.raises(ConfigError, match="PNEUMASIM_FRESH_WORKERS = 'yes'; expected 1"):
+        options_from_env()
 
 
 def test_cli_maps_a_module_function_and_resumes(tmp_path, capsys):

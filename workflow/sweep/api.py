@@ -19,7 +19,7 @@ BACKENDS = ("inline", "process", "ray")
 
 
 def sweep(fn, cases, *, out=None, backend="process", workers=None, ray_address=None,
-          retries=1, progress=True) -> list[CaseResult]:
+          retries=1, progress=True, fresh_workers=False) -> list[CaseResult]:
     """Run ``fn(case)`` for every case; results in case order.
 
     Args:
@@ -36,6 +36,10 @@ def sweep(fn, cases, *, out=None, backend="process", workers=None, ray_address=N
         in this process (``ray.init``) is used as it is.
       retries: extra attempts for a case that raised or whose worker died.
       progress: show a progress bar (cases done, failed, time left) on stderr.
+      fresh_workers: run every case in a worker process of its own, started for it (as a
+        user runs one command per process): what a case measures of its process -- its
+        peak memory above all -- is then its own, not what earlier cases left resident.
+        Costs a worker start (imports, numba's cache) per case; not with ``"inline"``.
     """
     if backend not in BACKENDS:
         raise UnknownNameError("sweep backend", str(backend), BACKENDS)
@@ -49,11 +53,14 @@ def sweep(fn, cases, *, out=None, backend="process", workers=None, ray_address=N
         raise ConfigError(f"sweep: workers = {workers!r}; expected a whole number >= 1")
     if not callable(fn):
         raise ConfigError(f"sweep: fn = {fn!r} is not a function")
+    if fresh_workers and backend == "inline":
+        raise ConfigError("sweep: fresh_workers=True needs worker processes; backend 'inline' runs the "
+                          "cases in this process (use 'process' or 'ray')")
     cases = [plain_case(c, i) for i, c in enumerate(cases)]
     out = Path(out) if out is not None else None
     results: list[CaseResult | None] = resume_cases(out, cases) if out else [None] * len(cases)
     todo = [i for i, r in enumerate(results) if r is None]
-    if backend == "process" and len(todo) == 1:
+    if backend == "process" and len(todo) == 1 and not fresh_workers:
         backend = "inline"  # nothing to share: no pool start
     if backend != "inline" and todo:
         check_picklable(fn, backend)
@@ -77,15 +84,15 @@ def sweep(fn, cases, *, out=None, backend="process", workers=None, ray_address=N
                 run_inline(fn, cases, tracker)
             elif backend == "process":
                 n_workers = min(workers or cpu_count(), len(todo))
-                run_process(fn, cases, tracker, n_workers)
+                run_process(fn, cases, tracker, n_workers, fresh_workers)
             else:
-                n_workers = run_ray(fn, cases, tracker, workers, ray_address)
+                n_workers = run_ray(fn, cases, tracker, workers, ray_address, fresh_workers)
     failed = [r.index for r in results if not r.ok]
     if out:
         atomic_write_json(out / "sweep.json", {
             "cases": len(cases), "done": len(cases) - len(failed), "failed": len(failed),
             "resumed": sum(r.resumed for r in results), "failed_cases": failed, "backend": backend,
-            "workers": n_workers, "wall_seconds": round(time.perf_counter() - t0, 3)})
+            "workers": n_workers, "fresh_workers": bool(fresh_workers), "wall_seconds": round(time.perf_counter() - t0, 3)})
     if failed and progress:
         for i in failed[:5]:
             print(f"sweep: case {i} failed after {results[i].attempts} attempt(s):\n  "
@@ -104,7 +111,9 @@ def raise_on_failure(results: list[CaseResult], what: str = "sweep"):
 def options_from_env() -> dict:
     """Backend options from the environment, for scenarios (which take no sweep flags):
     ``PNEUMASIM_RAY=auto|ADDRESS|local`` selects Ray (``local``: start it here),
-    ``PNEUMASIM_WORKERS=N`` the number of workers, ``PNEUMASIM_BACKEND=inline|process|ray``."""
+    ``PNEUMASIM_WORKERS=N`` the number of workers, ``PNEUMASIM_BACKEND=inline|process|ray``,
+    ``PNEUMASIM_FRESH_WORKERS=1`` a worker process started for every case (``sweep``'s
+    ``fresh_workers``)."""
     opts = {}
     backend = os.environ.get("PNEUMASIM_BACKEND")
     if backend:
@@ -120,4 +129,9 @@ def options_from_env() -> dict:
             opts["workers"] = int(n)
         except ValueError:
             raise ConfigError(f"PNEUMASIM_WORKERS = {n!r}; expected a whole number >= 1") from None
+    fresh = os.environ.get("PNEUMASIM_FRESH_WORKERS")
+    if fresh:
+        if fresh not in ("0", "1"):
+            raise ConfigError(f"PNEUMASIM_FRESH_WORKERS = {fresh!r}; expected 1 (a worker per case) or 0")
+        opts["fresh_workers"] = fresh == "1"
     return opts

@@ -44,6 +44,7 @@ class _Worker:
         self.proc.start()
         child.close()
         self.index, self.started = None, 0.0
+        self.cases_sent = 0
 
     def stop(self, timeout=2.0):
         try:
@@ -106,6 +107,13 @@ class _Pool:
         self.workers[self.workers.index(w)] = new
         return new
 
+    def renew(self, w: _Worker) -> _Worker:
+        """A new worker in place of a live, idle one (stopped cleanly first)."""
+        w.stop()
+        new = self._start()
+        self.workers[self.workers.index(w)] = new
+        return new
+
     def shutdown(self):
         for w in self.workers:
             w.stop()
@@ -137,12 +145,16 @@ def _exit_text(code) -> str:
     return f"exit code {code}"
 
 
-def run_process(fn, cases, tracker, n_workers):
+def run_process(fn, cases, tracker, n_workers, fresh_workers=False):
+    """Run the tracker's cases on ``n_workers`` pool workers; with ``fresh_workers`` a worker
+    that finished a case is stopped and a new one takes its place."""
     from multiprocessing.connection import wait
 
     fn_bytes = pickle.dumps(fn)
     preload = [m for m in ("workflow.sweep.pool", getattr(fn, "__module__", None)) if m and m != "__main__"]
     idle = list(_POOL.take(n_workers, preload, need_main=getattr(fn, "__module__", None) == "__main__"))
+    if fresh_workers:  # a worker kept from an earlier sweep is not fresh
+        idle = [_POOL.renew(w) if w.cases_sent else w for w in idle]
     busy: dict = {}  # conn or sentinel -> worker
     try:
         while tracker.queue or busy:
@@ -150,6 +162,7 @@ def run_process(fn, cases, tracker, n_workers):
                 w = idle.pop()
                 i = tracker.next()
                 w.index, w.started = i, time.perf_counter()
+                w.cases_sent += 1
                 try:
                     w.conn.send((i, fn_bytes, cases[i]))
                 except (BrokenPipeError, OSError):
@@ -170,7 +183,7 @@ def run_process(fn, cases, tracker, n_workers):
                 del busy[w.conn], busy[w.proc.sentinel]
                 if msg is not None:
                     tracker.done(*msg)
-                    idle.append(w)
+                    idle.append(_POOL.renew(w) if fresh_workers else w)
                     continue
                 w.proc.join(1.0)
                 err = (f"worker process {w.proc.pid} died ({_exit_text(w.proc.exitcode)}) "

@@ -27,7 +27,9 @@ def _ray_call(payload, case):
     return call_case(_FN_CACHE[fn_bytes], case)
 
 
-_RAY_REMOTE = None
+#: the remote function, one per value of max_calls (0: workers kept; 1: a worker per case);
+#: Ray's .options() cannot override max_calls
+_RAY_REMOTES: dict = {}
 
 
 def _import_ray():
@@ -71,14 +73,16 @@ def connect_ray(address=None, num_cpus=None):
     return ray
 
 
-def run_ray(fn, cases, tracker, workers, address) -> int:
-    global _RAY_REMOTE
+def run_ray(fn, cases, tracker, workers, address, fresh_workers=False) -> int:
     ray = connect_ray(address, workers)
     from ray import cloudpickle
 
-    if _RAY_REMOTE is None:
-        # retries are ours (one rule for every backend), so Ray's own are off
-        _RAY_REMOTE = ray.remote(num_cpus=1, max_retries=0)(_ray_call)
+    # retries are ours (one rule for every backend), so Ray's own are off; Ray ends a worker
+    # process after max_calls tasks of the function (0: never), so 1 gives every case its own
+    max_calls = 1 if fresh_workers else 0
+    if max_calls not in _RAY_REMOTES:
+        _RAY_REMOTES[max_calls] = ray.remote(num_cpus=1, max_retries=0, max_calls=max_calls)(_ray_call)
+    remote = _RAY_REMOTES[max_calls]
     payload = ray.put((cloudpickle.dumps(fn), [p for p in sys.path if p and os.path.isdir(p)]))
     window = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
     inflight: dict = {}  # ObjectRef -> (index, start)
@@ -86,7 +90,7 @@ def run_ray(fn, cases, tracker, workers, address) -> int:
         while tracker.queue or inflight:
             while tracker.queue and len(inflight) < window:
                 i = tracker.next()
-                inflight[_RAY_REMOTE.remote(payload, cases[i])] = (i, time.perf_counter())
+                inflight[remote.remote(payload, cases[i])] = (i, time.perf_counter())
             ready, _ = ray.wait(list(inflight), num_returns=1, timeout=0.5)
             tracker.bar.refresh()
             for ref in ready:
