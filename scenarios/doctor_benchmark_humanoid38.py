@@ -23,14 +23,15 @@ Metrics: the strict ones of scenarios/_generalization_metrics.py (``strict_effec
 joint, ``null_false_discovery_rate``, ``silent_miss_rate``, per family), the lenient ones of
 the development sets, ``seconds_per_case`` (the doctor alone), ``generate_seconds_per_case``,
 and ``peak_memory_mib`` (the largest of the cases' peaks: each case's resident high-water mark
-in its warm worker, reset when the case starts -- recordings and doctor together, and whatever
-the worker still held from its earlier cases -- so that cases.json names the case that
-peaked).  doctor_time.png: the doctor's seconds against the number of chambers: arm2 (4, a
+in a worker process started for it, as a user runs one doctor per process -- recordings and
+doctor together -- so that cases.json names the case that peaked).  doctor_time.png: the doctor's seconds against the number of chambers: arm2 (4, a
 null case of the same lengths), parts of humanoid38 with its other joints locked at the home
 pose (pneumatics.robot_subset: the left arm 16, both arms 32, the upper body 48 chambers; a null
 case each, fixed seeds, its own calibrated PIDF) and humanoid38 (76, every case).
 
-Cases run through :func:`workflow.sweep.sweep` (``PNEUMASIM_WORKERS=N``); finished cases are
+Cases run through :func:`workflow.sweep.sweep` (``PNEUMASIM_WORKERS=N``), each in a fresh worker
+process (``fresh_workers``: a warm worker keeps what its earlier cases left resident, which a
+case's peak would count; ``PNEUMASIM_FRESH_WORKERS=0`` keeps the workers); finished cases are
 kept in ``<out>/sweep/cases/`` (a rerun resumes).  Outputs: metrics.json, cases.json,
 cases/<case>/report.json and truth.json.
 """
@@ -106,7 +107,8 @@ def _start_case_peak() -> None:
 
 def _case_peak_mib() -> float:
     """The peak resident memory since :func:`_start_case_peak` [MiB]: what one case needed in
-    its warm worker (imports, JIT caches and whatever earlier cases left included); the
+    its worker (imports and JIT caches included; in a kept worker also whatever earlier cases
+    left resident, which the benchmark's fresh workers avoid); the
     process's whole peak where /proc/self/status is not there."""
     try:
         with open("/proc/self/status") as f:
@@ -307,7 +309,9 @@ def run(ctx):
     timed = TIMED_SUBSETS[:1] if ctx.fast else TIMED_SUBSETS
     specs += [{"subset": p, "seed": 2 + k, "seconds": seconds, "heldout_seconds": held_s} for k, p in enumerate(timed)]
     specs.append({"arm2_timing": True, "seed": 1, "seconds": seconds, "heldout_seconds": held_s})
-    results = sweep(sweep_case, specs, out=ctx.out / "sweep", **options_from_env())
+    opts = options_from_env()
+    opts.setdefault("fresh_workers", opts.get("backend") != "inline")  # a case's peak memory its own
+    results = sweep(sweep_case, specs, out=ctx.out / "sweep", **opts)
     raise_on_failure(results, "doctor_benchmark_humanoid38")
     done = [r.result for r in results]
     rows, parts, arm2 = done[:len(cases)], done[len(cases):-1], done[-1]
