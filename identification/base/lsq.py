@@ -31,11 +31,12 @@ class Fit:
 def covariance(jac, rss, n):
     """(standard errors, condition number) of a least-squares fit from its Jacobian (n rows),
     residual sum of squares ``rss`` and the usual s^2 = rss / (n - p) (Gauss-Markov)."""
-    if hasattr(jac, "toarray"):  # sparse Jacobian from jac_sparsity
-        jac = jac.toarray()
     p = jac.shape[1]
     s2 = rss / max(n - p, 1)
-    jtj = jac.T @ jac
+    if hasattr(jac, "toarray"):  # sparse Jacobian from jac_sparsity: J^T J formed sparse, only the
+        jtj = (jac.T @ jac).toarray()  # p x p made dense (a humanoid's chambers: J is ~0.6 GiB dense)
+    else:
+        jtj = jac.T @ jac
     scale = np.sqrt(np.maximum(np.diag(jtj), 1e-300))
     jtj_s = jtj / np.outer(scale, scale)
     cond = float(np.linalg.cond(jtj_s))
