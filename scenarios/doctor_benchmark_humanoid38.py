@@ -24,10 +24,11 @@ joint, ``null_false_discovery_rate``, ``silent_miss_rate``, per family), the len
 the development sets, ``seconds_per_case`` (the doctor alone), ``generate_seconds_per_case``,
 and ``peak_memory_mib`` (the largest of the cases' peaks: each case's resident high-water mark
 in a worker process started for it, as a user runs one doctor per process -- recordings and
-doctor together -- so that cases.json names the case that peaked).  doctor_time.png: the doctor's seconds against the number of chambers: arm2 (4, a
-null case of the same lengths), parts of humanoid38 with its other joints locked at the home
-pose (pneumatics.robot_subset: the left arm 16, both arms 32, the upper body 48 chambers; a null
-case each, fixed seeds, its own calibrated PIDF) and humanoid38 (76, every case).
+doctor together -- so that cases.json names the case that peaked).  doctor_time.png: the
+doctor's seconds against the number of chambers: arm2 (4, a null case of the same lengths),
+parts of humanoid38 with its other joints locked at the home pose (pneumatics.robot_subset: the
+left arm 16, both arms 32, the upper body 48 chambers; a null case each, fixed seeds, its own
+calibrated PIDF) and humanoid38 (76, every case).
 
 Cases run through :func:`workflow.sweep.sweep` (``PNEUMASIM_WORKERS=N``), each in a fresh worker
 process (``fresh_workers``: a warm worker keeps what its earlier cases left resident, which a
