@@ -183,7 +183,8 @@ def run_process(fn, cases, tracker, n_workers, fresh_workers=False):
                 del busy[w.conn], busy[w.proc.sentinel]
                 if msg is not None:
                     tracker.done(*msg)
-                    idle.append(_POOL.renew(w) if fresh_workers else w)
+                    # renewed only for a case still to run: a fresh sweep renews a used worker first
+                    idle.append(_POOL.renew(w) if fresh_workers and tracker.queue else w)
                     continue
                 w.proc.join(1.0)
                 err = (f"worker process {w.proc.pid} died ({_exit_text(w.proc.exitcode)}) "
