@@ -97,19 +97,10 @@ class _Pool:
         finally:
             sys.modules["__main__"] = main
 
-    def replace(self, w: _Worker) -> _Worker:
-        w.proc.join(0.1)
-        if w.proc.is_alive():
-            w.proc.kill()
-            w.proc.join()
-        w.conn.close()
-        new = self._start()
-        self.workers[self.workers.index(w)] = new
-        return new
-
-    def renew(self, w: _Worker) -> _Worker:
-        """A new worker in place of a live, idle one (stopped cleanly first)."""
-        w.stop()
+    def replace(self, w: _Worker, timeout: float = 0.1) -> _Worker:
+        """A new worker in place of ``w``: a dead one, or a live idle one asked to stop (killed
+        after ``timeout`` s)."""
+        w.stop(timeout)
         new = self._start()
         self.workers[self.workers.index(w)] = new
         return new
@@ -154,7 +145,7 @@ def run_process(fn, cases, tracker, n_workers, fresh_workers=False):
     preload = [m for m in ("workflow.sweep.pool", getattr(fn, "__module__", None)) if m and m != "__main__"]
     idle = list(_POOL.take(n_workers, preload, need_main=getattr(fn, "__module__", None) == "__main__"))
     if fresh_workers:  # a worker kept from an earlier sweep is not fresh
-        idle = [_POOL.renew(w) if w.cases_sent else w for w in idle]
+        idle = [_POOL.replace(w, timeout=2.0) if w.cases_sent else w for w in idle]
     busy: dict = {}  # conn or sentinel -> worker
     try:
         while tracker.queue or busy:
@@ -183,8 +174,8 @@ def run_process(fn, cases, tracker, n_workers, fresh_workers=False):
                 del busy[w.conn], busy[w.proc.sentinel]
                 if msg is not None:
                     tracker.done(*msg)
-                    # renewed only for a case still to run: a fresh sweep renews a used worker first
-                    idle.append(_POOL.renew(w) if fresh_workers and tracker.queue else w)
+                    # replaced only for a case still to run: a fresh sweep replaces a used worker first
+                    idle.append(_POOL.replace(w, timeout=2.0) if fresh_workers and tracker.queue else w)
                     continue
                 w.proc.join(1.0)
                 err = (f"worker process {w.proc.pid} died ({_exit_text(w.proc.exitcode)}) "
