@@ -155,27 +155,33 @@ def humanoid_case(case: dict) -> dict:
 
 
 #: a hidden effect's size as the output-error screen states its detection limit: family ->
-#: (the screen's parameter, the truth's path to it); a pressure-sensor offset's limit is stated
-#: on its cylinder's chamber a (the force it fakes), used for either chamber
-TRUTH_SIZE = {"coulomb_friction": ("friction", "coulomb_nm"), "viscous_friction": ("friction", "viscous_nm_s"),
-              "angle_sensor_offset": ("angle_offset_rad",), "pressure_sensor_offset": ("pressure_offset_pa",)}
+#: (the screen family whose limit it is set against, its size from the truth's parameters).  A
+#: pressure-sensor offset's limit is stated on its cylinder's chamber a (the force it fakes), used
+#: for either chamber.  A stiction's torque never exceeds its Coulomb level plus its breakaway
+#: excess (pneumatics/effects/friction.py, friction_torque), so that sum is set against the
+#: Coulomb friction's limit: a Coulomb friction of that level the doctor said it could not show.
+TRUTH_SIZE = {
+    "coulomb_friction": ("coulomb_friction", lambda p: p["friction"]["coulomb_nm"]),
+    "viscous_friction": ("viscous_friction", lambda p: p["friction"]["viscous_nm_s"]),
+    "stiction": ("coulomb_friction",
+                 lambda p: p["friction"].get("coulomb_nm", 0.0) + p["friction"]["stiction_extra_nm"]),
+    "angle_sensor_offset": ("angle_sensor_offset", lambda p: p["angle_offset_rad"]),
+    "pressure_sensor_offset": ("pressure_sensor_offset", lambda p: p["pressure_offset_pa"]),
+}
 
 
 def effect_against_limit(effect: dict, screen: dict) -> dict:
     """{family, size, limit}: a hidden effect's size and the smallest one the doctor said these
-    recordings could show at its place (output_error_screen.detection_limit); limit None where the
-    doctor stated none (a family or place the output-error screen does not fit, or the screen
-    did not run: the rigid body's calibration was kept)."""
+    recordings could show at its place (output_error_screen.detection_limit, TRUTH_SIZE); limit
+    None where the doctor stated none (a family or place the output-error screen does not fit,
+    or the screen did not run: the rigid body's calibration was kept)."""
     fam, where = effect["family"], effect["where"]
-    path = TRUTH_SIZE.get(fam)
-    limits = screen.get(fam, {}).get("detection_limit", {})
-    if path is None or not limits:
+    screened, size_of = TRUTH_SIZE.get(fam, (None, None))
+    limits = screen.get(screened, {}).get("detection_limit", {})
+    if size_of is None or not limits:
         return {"family": fam, "size": None, "limit": None}
-    size = effect["parameters"]
-    for key in path:
-        size = size[key]
     limit = limits.get(where.get("joint") or where.get("actuator"))
-    return {"family": fam, "size": abs(float(size)), "limit": limit}
+    return {"family": fam, "size": abs(float(size_of(effect["parameters"]))), "limit": limit}
 
 
 def below_limit_metrics(rows: list[dict]) -> dict:

@@ -216,6 +216,11 @@ def test_a_silent_case_is_counted_under_the_detection_limit_only_where_the_docto
     assert effect_against_limit(offset, screen)["limit"] == 3000.0          # stated on the cylinder's chamber a
     assert effect_against_limit(leak, screen)["limit"] is None
     assert effect_against_limit(coulomb, {})["limit"] is None               # the screen did not run
+    # a stiction's torque is at most its Coulomb level plus its breakaway excess: that sum
+    # against the Coulomb friction's limit at its joint
+    stiction = {"family": "stiction", "where": {"joint": "right_knee"},
+                "parameters": {"friction": {"coulomb_nm": 0.02, "stiction_extra_nm": 0.05, "stribeck_rad_s": 0.08}}}
+    assert effect_against_limit(stiction, screen) == {"family": "stiction", "size": pytest.approx(0.07), "limit": 0.3}
 
     def row(effect, findings=()):
         return {"effects": [effect], "findings": list(findings), "unexplained": [],
