@@ -142,8 +142,7 @@ def humanoid_case(case: dict) -> dict:
     for private in [k for k in report if k.startswith("_")]:  # replays and the fitted model: not JSON
         report.pop(private)
     lenient = judge(truth["effects"], report)
-    screen = report["diagnostics"].get("output_error_screen", {})
-    detection = [effect_against_limit(e, screen) for e in truth["effects"]]
+    detection = [effect_against_limit(e, report["diagnostics"]) for e in truth["effects"]]
     return {"case": f"case_{case['seed']}", "seed": case["seed"], "kind": case_kind(truth["families"]),
             "families": truth["families"], "effects": truth["effects"], "truth": truth,
             "verdict": report["verdict"], "named": [f["effect"] for f in report["findings"]],
@@ -154,34 +153,59 @@ def humanoid_case(case: dict) -> dict:
             "chambers": robot.tables.n_chambers, "subset": subset, "report": report}
 
 
-#: a hidden effect's size as the output-error screen states its detection limit: family ->
-#: (the screen family whose limit it is set against, its size from the truth's parameters).  A
-#: pressure-sensor offset's limit is stated on its cylinder's chamber a (the force it fakes), used
-#: for either chamber.  A stiction's torque never exceeds its Coulomb level plus its breakaway
+#: a hidden effect's size as the doctor states its detection limits: family -> (its size from the
+#: truth's parameters, [(the report's table of limits, the family whose limit it is set against)]);
+#: the smallest limit any of them stated at the effect's place.  The output-error screen's limits
+#: at the joints (``output_error_screen``, by joint or actuator: a pressure-sensor offset's is
+#: stated on its cylinder's chamber a, the force it fakes, and used for either chamber) and the
+#: pneumatic keep rule's at the chambers (``chamber_detection_limit``, chamber_limits.py, by
+#: hypothesis.place_of).  A stiction's torque never exceeds its Coulomb level plus its breakaway
 #: excess (pneumatics/effects/friction.py, friction_torque), so that sum is set against the
 #: Coulomb friction's limit: a Coulomb friction of that level the doctor said it could not show.
+JOINTS, CHAMBERS = "output_error_screen", "chamber_detection_limit"
 TRUTH_SIZE = {
-    "coulomb_friction": ("coulomb_friction", lambda p: p["friction"]["coulomb_nm"]),
-    "viscous_friction": ("viscous_friction", lambda p: p["friction"]["viscous_nm_s"]),
-    "stiction": ("coulomb_friction",
-                 lambda p: p["friction"].get("coulomb_nm", 0.0) + p["friction"]["stiction_extra_nm"]),
-    "angle_sensor_offset": ("angle_sensor_offset", lambda p: p["angle_offset_rad"]),
-    "pressure_sensor_offset": ("pressure_sensor_offset", lambda p: p["pressure_offset_pa"]),
+    "coulomb_friction": (lambda p: p["friction"]["coulomb_nm"], [(JOINTS, "coulomb_friction")]),
+    "viscous_friction": (lambda p: p["friction"]["viscous_nm_s"], [(JOINTS, "viscous_friction")]),
+    "stiction": (lambda p: p["friction"].get("coulomb_nm", 0.0) + p["friction"]["stiction_extra_nm"],
+                 [(JOINTS, "coulomb_friction")]),
+    "angle_sensor_offset": (lambda p: p["angle_offset_rad"], [(JOINTS, "angle_sensor_offset")]),
+    "pressure_sensor_offset": (lambda p: p["pressure_offset_pa"],
+                               [(JOINTS, "pressure_sensor_offset"), (CHAMBERS, "pressure_sensor_offset")]),
+    "valve_leak": (lambda p: p["valve_leak_m2"], [(CHAMBERS, "valve_leak")]),
+    "external_leak": (lambda p: p["external_leak_m2"], [(CHAMBERS, "external_leak")]),
+    "piston_leak": (lambda p: p["piston_leak_m2"], [(CHAMBERS, "piston_leak")]),
+    "valve_hysteresis": (lambda p: p["valve_hysteresis_v"], [(CHAMBERS, "valve_hysteresis")]),
+    "valve_lag": (lambda p: p["valve_lag_s"], [(CHAMBERS, "valve_lag")]),
+    "line_dynamics": (lambda p: p["line_dynamics"]["delay_s"], [(CHAMBERS, "line_dynamics")]),
+    "heat_transfer": (lambda p: p["heat_transfer"]["conductance_w_k"], [(CHAMBERS, "heat_transfer")]),
+    "backlash": (lambda p: p["backlash"]["gap_rad"], [(CHAMBERS, "backlash")]),
+    "supply_droop": (lambda p: p["supply_droop_pa_per_kg_s"] if not (p.get("supply_droop_pa_per_kg2_s2") or
+                                                                     p.get("supply_droop_tau_s")) else None,
+                     [(CHAMBERS, "supply_droop")]),
 }
+"""(a size of None: the effect is in another form than the one the limit is stated for -- a
+supply whose droop is quadratic or low-passed)"""
 
 
-def effect_against_limit(effect: dict, screen: dict) -> dict:
+def effect_against_limit(effect: dict, diagnostics: dict) -> dict:
     """{family, size, limit}: a hidden effect's size and the smallest one the doctor said these
-    recordings could show at its place (output_error_screen.detection_limit, TRUTH_SIZE); limit
-    None where the doctor stated none (a family or place the output-error screen does not fit,
-    or the screen did not run: the rigid body's calibration was kept)."""
+    recordings could show at its place (TRUTH_SIZE's tables in the report's ``diagnostics``);
+    limit None where the doctor stated none (a family it states none for, or the table was not
+    made: the output-error screen does not run where the rigid body's calibration was kept)."""
+    from identification.doctor.valve_arm.hypothesis import place_of
+
     fam, where = effect["family"], effect["where"]
-    screened, size_of = TRUTH_SIZE.get(fam, (None, None))
-    limits = screen.get(screened, {}).get("detection_limit", {})
-    if size_of is None or not limits:
+    size_of, routes = TRUTH_SIZE.get(fam, (None, []))
+    stated = []
+    for table, screened in routes:
+        limits = diagnostics.get(table, {}).get(screened, {}).get("detection_limit", {})
+        key = (where.get("joint") or where.get("actuator")) if table == JOINTS else place_of(where)
+        if limits.get(key) is not None and np.isfinite(limits[key]):
+            stated.append(float(limits[key]))
+    size = size_of(effect["parameters"]) if stated else None
+    if size is None:
         return {"family": fam, "size": None, "limit": None}
-    limit = limits.get(where.get("joint") or where.get("actuator"))
-    return {"family": fam, "size": abs(float(size_of(effect["parameters"]))), "limit": limit}
+    return {"family": fam, "size": abs(float(size)), "limit": min(stated)}
 
 
 def below_limit_metrics(rows: list[dict]) -> dict:

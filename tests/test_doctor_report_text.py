@@ -1,6 +1,8 @@
 """What the valve-arm doctor's summary and report.md tell a user whose rigid body was held
 nominal, and what they say of a finding whose coupled held-out replay got worse
 (identification/doctor/valve_arm/report.py)."""
+import numpy as np
+
 from identification.doctor.valve_arm.report import change, kept_nominal_lines, summary
 
 WHY = "the calibrated rigid body replayed the held-out angles worse than the nominal one"
@@ -78,3 +80,18 @@ def test_report_md_and_the_summary_say_how_small_a_joint_effect_the_recordings_c
     text = summary(report)
     assert "smallest joint effects these recordings show" in text and "coulomb_friction coulomb_nm 0.1" in text
     assert len(text.splitlines()) <= 7
+
+
+def test_report_md_says_how_small_a_chamber_effect_the_held_out_recording_could_show():
+    """One row per family: median, smallest and largest place; a place whose probe changed
+    nothing (inf in memory, None once written as JSON) is left out of the row."""
+    from identification.doctor.valve_arm.report import chamber_detection_lines
+
+    limits = {"valve_leak": {"parameter": "leak_area_m2",
+                             "detection_limit": {"jaw.a": 2e-9, "jaw.b": 8e-9, "left_knee.a": 4e-9, "neck_pitch.b": np.inf}},
+              "piston_leak": {"parameter": "leak_area_m2", "detection_limit": {"jaw": None}}}
+    lines = chamber_detection_lines(limits)
+    (row,) = [line for line in lines if line.startswith("| valve_leak")]
+    assert row == "| valve_leak | leak_area_m2 | 4e-09 | 2e-09 (jaw.a) | 8e-09 (jaw.b) |"
+    assert not [line for line in lines if line.startswith("| piston_leak")]
+    assert chamber_detection_lines({}) == []

@@ -201,36 +201,44 @@ print(before, case, resident)
 
 def test_a_silent_case_is_counted_under_the_detection_limit_only_where_the_doctor_stated_one_above_it():
     """The doctor's stated limit at the hidden effect's place against the effect's true size: a
-    Coulomb friction under it, a viscous friction over it, a valve leak (no stated limit)."""
+    Coulomb friction under it, a viscous friction over it, a valve leak at a chamber with no
+    stated limit; the smallest of the joints' and the chambers' limits where both state one."""
     from scenarios.doctor_benchmark_humanoid38 import below_limit_metrics, effect_against_limit
 
     screen = {"coulomb_friction": {"parameter": "coulomb_nm", "detection_limit": {"right_knee": 0.3}},
               "viscous_friction": {"parameter": "viscous_nm_s_per_rad", "detection_limit": {"jaw": 0.01}},
               "pressure_sensor_offset": {"parameter": "offset_pa", "detection_limit": {"left_elbow": 3000.0}}}
+    chambers = {"valve_leak": {"parameter": "leak_area_m2", "detection_limit": {"jaw.b": 2e-9, "jaw.a": None}},
+                "pressure_sensor_offset": {"parameter": "offset_pa", "detection_limit": {"left_elbow.b": 2500.0}}}
+    diagnostics = {"output_error_screen": screen, "chamber_detection_limit": chambers}
     coulomb = {"family": "coulomb_friction", "where": {"joint": "right_knee"}, "parameters": {"friction": {"coulomb_nm": -0.02}}}
     viscous = {"family": "viscous_friction", "where": {"joint": "jaw"}, "parameters": {"friction": {"viscous_nm_s": 0.03}}}
     offset = {"family": "pressure_sensor_offset", "where": {"actuator": "left_elbow", "chamber": "b"},
               "parameters": {"pressure_offset_pa": -5000.0}}
     leak = {"family": "valve_leak", "where": {"actuator": "jaw", "chamber": "a"}, "parameters": {"valve_leak_m2": 1e-8}}
-    assert effect_against_limit(coulomb, screen) == {"family": "coulomb_friction", "size": 0.02, "limit": 0.3}
-    assert effect_against_limit(offset, screen)["limit"] == 3000.0          # stated on the cylinder's chamber a
-    assert effect_against_limit(leak, screen)["limit"] is None
+    small_leak = {"family": "valve_leak", "where": {"actuator": "jaw", "chamber": "b"}, "parameters": {"valve_leak_m2": 1e-9}}
+    assert effect_against_limit(coulomb, diagnostics) == {"family": "coulomb_friction", "size": 0.02, "limit": 0.3}
+    # the joints' limit is stated on the cylinder's chamber a; the chambers' on b itself: the smaller
+    assert effect_against_limit(offset, {"output_error_screen": screen})["limit"] == 3000.0
+    assert effect_against_limit(offset, diagnostics)["limit"] == 2500.0
+    assert effect_against_limit(leak, diagnostics)["limit"] is None          # none stated at jaw.a
+    assert effect_against_limit(small_leak, diagnostics) == {"family": "valve_leak", "size": 1e-9, "limit": 2e-9}
     assert effect_against_limit(coulomb, {})["limit"] is None               # the screen did not run
     # a stiction's torque is at most its Coulomb level plus its breakaway excess: that sum
     # against the Coulomb friction's limit at its joint
     stiction = {"family": "stiction", "where": {"joint": "right_knee"},
                 "parameters": {"friction": {"coulomb_nm": 0.02, "stiction_extra_nm": 0.05, "stribeck_rad_s": 0.08}}}
-    assert effect_against_limit(stiction, screen) == {"family": "stiction", "size": pytest.approx(0.07), "limit": 0.3}
+    assert effect_against_limit(stiction, diagnostics) == {"family": "stiction", "size": pytest.approx(0.07), "limit": 0.3}
 
     def row(effect, findings=()):
         return {"effects": [effect], "findings": list(findings), "unexplained": [],
-                "detection": [effect_against_limit(effect, screen)]}
+                "detection": [effect_against_limit(effect, diagnostics)]}
 
-    rows = [row(coulomb), row(viscous), row(leak), row(offset, [{"effect": "pressure_sensor_offset"}]),
+    rows = [row(coulomb), row(viscous), row(leak), row(small_leak), row(offset, [{"effect": "pressure_sensor_offset"}]),
             {"effects": [], "findings": [], "unexplained": [], "detection": []}]
     m = below_limit_metrics(rows)
-    assert m == {"effects_with_stated_detection_limit": 3, "effects_under_stated_detection_limit": 1,
-                 "silent_cases_under_stated_detection_limit": 1, "silent_cases": 3}
+    assert m == {"effects_with_stated_detection_limit": 4, "effects_under_stated_detection_limit": 2,
+                 "silent_cases_under_stated_detection_limit": 2, "silent_cases": 4}
 
 
 def test_a_fresh_humanoid_run_draws_its_base_and_a_resumed_one_keeps_it(tmp_path, monkeypatch):

@@ -13,7 +13,7 @@ from pneumatics.effects.registry import get_family
 
 from .calibrate import SCALE_BOUND
 
-__all__ = ["Hypothesis", "torque_regressor"]
+__all__ = ["Hypothesis", "place_of", "torque_regressor"]
 
 
 @dataclass
@@ -64,9 +64,14 @@ class Hypothesis:
 
     @property
     def label(self) -> str:
-        w = self.where
-        place = w.get("joint") or (f"{w['actuator']}.{w['chamber']}" if "chamber" in w else w.get("actuator", "all"))
-        return f"{self.family}@{place}" + (f" ({self.form})" if self.form else "")
+        return f"{self.family}@{place_of(self.where)}" + (f" ({self.form})" if self.form else "")
+
+
+def place_of(where: dict) -> str:
+    """A place as the doctor names it in labels and per-place tables: the joint, the actuator's
+    chamber ("left_elbow.a"), the actuator, or "all" (the supply)."""
+    return where.get("joint") or (f"{where['actuator']}.{where['chamber']}" if "chamber" in where
+                                  else where.get("actuator", "all"))
 
 
 def torque_regressor(family: str, joint: int, units: list[dict], form: str | None = None):

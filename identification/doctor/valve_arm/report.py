@@ -16,6 +16,7 @@ from pneumatics.recording import Recording
 from identification.base.reporting import jsonable, with_error
 
 from .output_error_fit import MIN_TRAIN_GAIN, OFFSET_MIN_T, OUTPUT_ERROR_MIN_T
+from .rules import PNEU_KEEP
 
 
 def summary(report: dict) -> str:
@@ -241,6 +242,29 @@ def detection_lines(screen: dict) -> list[str]:
     return lines
 
 
+def chamber_detection_lines(limits: dict) -> list[str]:
+    """report.md's table of what the held-out recording could show at the chambers: per
+    pneumatic family, the median, smallest and largest size over its places that would pay the
+    keep rule (chamber_limits.chamber_detection_limits); none when it was not computed."""
+    finite = {fam: {k: v for k, v in s.get("detection_limit", {}).items() if v is not None and np.isfinite(v)}
+              for fam, s in limits.items()}
+    rows = [(fam, s) for fam, s in limits.items() if finite[fam]]
+    if not rows:
+        return []
+    lines = ["", "## What the recordings could show at the chambers", "",
+             f"The smallest effect of each family whose replayed change would remove {PNEU_KEEP:g} of its "
+             "chambers' held-out replay error (the keep rule), with that error taken as independent of the effect "
+             "and the replay linear over the probe step: approximate. A chamber with nothing named may still "
+             "carry an effect below its limit.", "",
+             "| family | parameter | median | smallest (place) | largest (place) |", "| --- | --- | --- | --- | --- |"]
+    for fam, s in rows:
+        lim = finite[fam]
+        lo, hi = min(lim, key=lim.get), max(lim, key=lim.get)
+        lines.append(f"| {fam} | {s['parameter']} | {np.median(list(lim.values())):.3g} | "
+                     f"{lim[lo]:.3g} ({lo}) | {lim[hi]:.3g} ({hi}) |")
+    return lines
+
+
 def candidate_lines(records: list) -> list[str]:
     """The report's table of the joint effects fitted to the replayed angles (output_error.
     candidate_record), each with why it was or was not named; none when the search did not run."""
@@ -296,6 +320,7 @@ def _markdown(report, pngs, fitted: bool = False) -> str:
         lines.append("Nothing above the noise floor is left unexplained.")
     lines += candidate_lines(report["diagnostics"].get("output_error_candidates", []))
     lines += detection_lines(report["diagnostics"].get("output_error_screen", {}))
+    lines += chamber_detection_lines(report["diagnostics"].get("chamber_detection_limit", {}))
     lines += ["", "## Calibration (1 = nominal)", "",
               "Fitted first, before any effect; then refitted jointly with the findings (the model kept).", "",
               "| parameter | before the effects | with the findings |", "| --- | --- | --- |"]

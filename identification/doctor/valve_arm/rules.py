@@ -143,6 +143,9 @@ class DoctorRun:
     """the final joint fit (calibration and every kept term)"""
     output_error_screen: dict = field(default_factory=dict)
     """family -> the output-error screen's floor and each joint's training gain (output_error_screen.screened)"""
+    chamber_detection: dict = field(default_factory=dict)
+    """family -> each chamber's (or place's) smallest size the held-out keep rule could pass
+    (chamber_limits.chamber_detection_limits)"""
     output_error_candidates: list = field(default_factory=list)
     """every candidate fitted by output error, round by round, with its verdict (output_error.candidate_record)"""
     finals: list = field(default_factory=list)

@@ -15,6 +15,7 @@ from .flex_check import block_samples, partial_projection, suggested_candidates
 from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
 from .angle_replay import angle_rule_verdict, yardstick_angle
 from .calibrate import SCALE_BOUND
+from .chamber_limits import chamber_detection_limits
 from .compliance import compliant_wall, wall_alternative
 from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data, with_pressures
 from .naming import friction_named, line_named
@@ -58,6 +59,8 @@ def search_pneumatic(run: DoctorRun, say) -> None:
     promising ones, keep the best that pays on held-out data (greedy)."""
     exp, held, win_h = run.exp, run.held, run.win_h
     retry_receiver = search_receiver(run, say)
+    say("what the held-out recording could show at each chamber")
+    run.chamber_detection = chamber_detection_limits(run)
     fits = CandidateFits()
     for rnd in range(MAX_ROUNDS):
         say(f"scoring pneumatic hypotheses (round {rnd + 1})")
