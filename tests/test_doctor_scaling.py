@@ -113,6 +113,29 @@ def test_the_rigid_body_fit_equals_its_reference_with_every_column():
         assert abs(fast.rss - ref.rss) <= 1e-9 * ref.rss and fast.n == ref.n
 
 
+def test_the_unidentified_parameters_from_the_triangular_factor_are_those_from_every_row():
+    """The calibration's choice of parameters held nominal (dependent columns, then the worst
+    standard error one at a time) made on the scaled rows' QR factor equals the choice made on
+    the rows: on arm2's sample, and on it with a column made a copy of another and a column
+    too small to identify, so both kinds of choice are made."""
+    from identification.doctor.valve_arm.mechanics import _scaled, _unidentified, torque_data, unidentified_columns
+
+    robot = load_robot("arm2")
+    td = torque_data(prepare(robot, read_csv(SAMPLE).slice(0, 30)))
+    A2, y2, _ = _scaled(td.decimate(td.regressors), td.decimate(td.residual))
+    names, lo, hi = list(td.names), td.lower, td.upper
+    rng = np.random.default_rng(3)
+    doubled = A2.copy()
+    doubled[:, 1] = 2.0 * doubled[:, 0]                          # moves exactly with the first column
+    doubled[:, 2] *= 1e-4                                        # its standard error over ESSENTIAL_SE
+    noisy = y2 + 0.01 * rng.normal(size=y2.size)
+    for A, y in ((A2, y2), (doubled, noisy)):
+        fast, ref = _unidentified(A, y, names, lo, hi), unidentified_columns(A, y, names, lo, hi)
+        assert fast == ref
+    assert names[1] in fast and "moves exactly with" in fast[names[1]]
+    assert "not identifiable" in fast[names[2]]
+
+
 def test_a_kept_terms_rounding_at_another_joint_neither_couples_nor_moves_it():
     """A kept term acting at the shoulder that leaves rounding (1e-12 of its size) at the elbow,
     and an effect at the elbow: the elbow alone is refitted, the kept term keeps its value (a

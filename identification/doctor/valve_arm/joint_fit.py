@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from identification.base.lsq import Fit, covariance
+from identification.base.lsq import Fit, bounded_linear, covariance
 
 from .mechanics import TorqueData, fit_rigid_body
 
@@ -117,7 +117,7 @@ def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, 
     in_block = block[sub]                                    # block lies within sub (acting or the effect's)
     A_b = A[:, in_block]
     y_f = y - A[:, ~in_block] @ np.where(free, x, held)[sub][~in_block]
-    x[block] = lsq_linear(A_b, y_f, bounds=(lo[block], hi[block])).x if block.any() else x[block]
+    x[block] = bounded_linear(A_b, y_f, lo[block], hi[block]) if block.any() else x[block]
     res = (y_f - A_b @ x[block]).reshape(-1, S)
     residual = base.residual.reshape(-1, J).copy()
     old = residual[:, joints]

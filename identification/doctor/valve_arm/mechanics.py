@@ -30,13 +30,12 @@ from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
-from scipy.optimize import lsq_linear
 from scipy.signal import butter, sosfiltfilt
 
 from pneumatics.chamber import actuator_force
 
 from .data import Experiment
-from identification.base.lsq import Fit, covariance
+from identification.base.lsq import Fit, bounded_linear, covariance
 
 #: the parallel low-pass sits at this fraction of the angle splines' half-amplitude frequency,
 #: where the spline passes q-double-dot within 0.2 % (H = 1 / (1 + 0.2^4), smoothing.spline_cutoff_hz).
@@ -408,21 +407,21 @@ def _scaled(A, y, scale=None):
 
 
 def _bounded_fit(A2, y2, names, lo, hi, free, held) -> Fit:
-    """lsq_linear on the ``free`` columns, the others at their ``held`` values (NaN stderr)."""
+    """Bounded least squares (bounded_linear) on the ``free`` columns, the others at their
+    ``held`` values (NaN stderr)."""
     y_f = y2 - A2[:, ~free] @ np.asarray(held, float)[~free]
     return _solve_free(A2[:, free], y_f, names, lo, hi, free, held)
 
 
 def _solve_free(A_free, y_f, names, lo, hi, free, held) -> Fit:
-    """lsq_linear of ``y_f`` (the rows less the held columns' part) on ``A_free`` (the
-    ``free`` columns only); the others at their ``held`` values (NaN stderr)."""
+    """Bounded least squares (bounded_linear) of ``y_f`` (the rows less the held columns' part)
+    on ``A_free`` (the ``free`` columns only); the others at their ``held`` values (NaN stderr)."""
     x = np.array(held, float)
     se = np.full(len(names), np.nan)
     if not free.any():  # everything held (every damping unidentifiable, no effect terms)
         return Fit(names, x, se, float(y_f @ y_f), y_f.size, 1.0, [], y_f)
-    r = lsq_linear(A_free, y_f, bounds=(lo[free], hi[free]))
-    x[free] = r.x
-    res = y_f - A_free @ r.x
+    x[free] = bounded_linear(A_free, y_f, lo[free], hi[free])
+    res = y_f - A_free @ x[free]
     rss = float(res @ res)
     se[free], cond = covariance(A_free, rss, y_f.size)
     at = [n for n, v, a, b, f in zip(names, x, lo, hi, free)
@@ -431,17 +430,34 @@ def _solve_free(A_free, y_f, names, lo, hi, free, held) -> Fit:
 
 
 def _unidentified(A2, y2, names, lo, hi, n_effects: int = 0) -> dict:
+    """:func:`unidentified_columns` of the scaled rows ``A2`` (M J, P), ``y2`` (M J,), solved
+    on A2's triangular factor: with A2 = Q R, every column's distance from the span of others,
+    every bounded fit and its Gauss-Markov errors are R's, once the part of y2 outside A2's
+    columns (|y2|^2 - |Q^T y2|^2) is added to each residual sum of squares and the rows are
+    counted as A2's (identification.base.lsq.bounded_linear).  One QR instead of a least-squares
+    solve over every row per column and per dropped parameter: on humanoid38 (a hundred and
+    fifty columns) these solves were most of each calibration of the rigid body."""
+    Q, R = np.linalg.qr(A2)
+    z = Q.T @ y2
+    return unidentified_columns(R, z, names, lo, hi, n_effects, max(float(y2 @ y2 - z @ z), 0.0), y2.size)
+
+
+def unidentified_columns(A, y, names, lo, hi, n_effects: int = 0, outside_rss: float = 0.0,
+                         n_rows: int | None = None) -> dict:
     """Calibration parameters kept nominal -> the reason: first those whose column is a
     combination of earlier ones (the order of ``names``: bodies before joint terms), then,
     one at a time, the one with the largest standard error while that exceeds ESSENTIAL_SE.
-    The last ``n_effects`` columns (kept effects) are always fitted, never chosen here."""
+    The last ``n_effects`` columns (kept effects) are always fitted, never chosen here.
+    ``outside_rss`` is added to every fit's residual sum of squares and ``n_rows`` (default
+    y's length) counts its rows: :func:`_unidentified` passes A's triangular factor; with the
+    defaults this is the same on the rows themselves, the reference it is tested against."""
     fixed = {}
     kept = list(range(len(names) - n_effects, len(names)))
     for k, n in enumerate(names[:len(names) - n_effects]):
-        col = A2[:, k]
+        col = A[:, k]
         norm = np.linalg.norm(col)
         if kept:
-            Q = A2[:, kept]
+            Q = A[:, kept]
             coef, *_ = np.linalg.lstsq(Q, col, rcond=None)
             left = np.linalg.norm(col - Q @ coef)
         else:
@@ -453,8 +469,12 @@ def _unidentified(A2, y2, names, lo, hi, n_effects: int = 0) -> dict:
         kept.append(k)
     while True:
         free = np.array([n not in fixed for n in names])
-        fit = _bounded_fit(A2, y2, names, lo, hi, free, np.zeros(len(names)))
-        se = np.where(free, fit.stderr, -np.inf)
+        if not free.any():
+            return fixed
+        x = bounded_linear(A[:, free], y, lo[free], hi[free])
+        res = y - A[:, free] @ x
+        se = np.full(len(names), -np.inf)
+        se[free] = covariance(A[:, free], float(res @ res) + outside_rss, n_rows or y.size)[0]
         se[len(names) - n_effects:] = -np.inf
         worst = int(np.argmax(se))
         if se[worst] <= ESSENTIAL_SE:
