@@ -57,11 +57,16 @@ def test_effect_fits_at_one_joint_equal_the_whole_fit():
     td = torque_data(exp)
     base = fit_rigid_body(td)
     hyps = mechanical_hypotheses(robot, exp, td)
-    confined = 0
+    confined, shared = 0, {}
     for h in hyps:
         extra, names, bounds = stack_terms(None, h.regressor(exp, td), h)
         whole, local = fit_rigid_body(td, extra, names, bounds), fit_effect(td, extra, names, bounds, base, 0)
         confined += coupled_joints(extra, td.valid, 0).size == 1
+        # the rows and factors an earlier effect left for its joints (joint_fit.JointBlock)
+        again = fit_effect(td, extra, names, bounds, base, 0, shared=shared)
+        np.testing.assert_allclose(again.values, local.values, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(again.stderr, local.stderr, rtol=1e-12)
+        assert again.rss == local.rss
         assert np.allclose(whole.values, local.values, rtol=0, atol=1e-9), h.label
         # the same split over a set of joints (on arm2 the set of both is the whole fit)
         both = fit_at_joints(td, extra, names, bounds, base, np.arange(2))
@@ -86,6 +91,13 @@ def test_effect_fits_at_one_joint_equal_the_whole_fit():
             after = after + torque_rms(test_on, fit_rigid_body(fit_on, extra, names, bounds), extra, block) ** 2
         assert np.allclose(s.heldout_after, np.sqrt(after / 2), rtol=1e-9) and np.allclose(s.heldout_before, np.sqrt(before / 2))
     assert confined >= len(hyps) // 2  # most act at one joint: the split is what is being tested
+    # the screen takes the hypotheses joint by joint and returns them in their own order
+    from identification.doctor.valve_arm.screening import score_mechanical
+    scored, _ = score_mechanical(td, exp, hyps)
+    assert [s.hyp for s in scored] == hyps
+    for s in scored[::7]:
+        extra, names, bounds = stack_terms(None, s.hyp.regressor(exp, td), s.hyp)
+        np.testing.assert_allclose(s.fit.values, fit_effect(td, extra, names, bounds, base, 0).values, rtol=0, atol=1e-12)
 
 
 def test_the_rigid_body_fit_equals_its_reference_with_every_column():

@@ -64,32 +64,109 @@ def reaches_fold(own: np.ndarray, fold_valid: np.ndarray, valid: np.ndarray, siz
 
 
 def fit_effect(td: TorqueData, extra: np.ndarray, names: list, bounds, base: Fit, base_cols: int,
-               stderr: bool = True) -> Fit:
+               stderr: bool = True, shared: dict | None = None) -> Fit:
     """``fit_rigid_body(td, extra, names, bounds)``, solved at the joints the effect's own
     columns (the last ones after ``base_cols`` extra columns of kept terms) change
     (:func:`coupled_joints`, :func:`fit_at_joints`) when those are not all of them.  ``base``
     is the fit without the effect (``fit_rigid_body(td, *base_extra)``).  ``stderr=False``:
     a fit whose values alone are wanted (a cross-validation's); its changed columns' standard
-    errors are left NaN, not computed."""
+    errors are left NaN, not computed.  ``shared``: a dict the caller keeps for effects fitted
+    against the same base, kept terms and torque data (:class:`JointBlock`)."""
     joints = coupled_joints(extra, td.valid, base_cols)
     if joints.size == td.residual.shape[1]:
         return fit_rigid_body(td, extra, names, bounds)
-    return fit_at_joints(td, extra, names, bounds, base, joints, stderr)
+    return fit_at_joints(td, extra, names, bounds, base, joints, stderr, shared)
 
 
 def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, base: Fit,
-                  joints: np.ndarray, stderr: bool = True) -> Fit:
+                  joints: np.ndarray, stderr: bool = True, shared: dict | None = None) -> Fit:
     """The whole torque-balance fit with ``extra`` (N, J, E) (named ``extra_names``, bounded by
     ``bounds``) when only the blocks of free columns of ``joints`` change from ``base`` (a fit
     over the same rows with the first columns of ``extra``; no free column couples one of
-    ``joints`` to another joint); ``stderr=False``: see :func:`fit_effect`."""
-    cal = td.calibration
+    ``joints`` to another joint); ``stderr=False``: see :func:`fit_effect`.  The rows and the
+    factors every effect at these joints shares come from ``shared`` where an earlier effect
+    left them (one joint set at a time: on humanoid38 its rows can take a hundred MB)."""
     names = list(td.names) + list(extra_names)
-    v = td.valid
-    P, E = len(td.names), extra.shape[2]
+    P, nb = len(td.names), len(base.values)
     J, S = td.residual.shape[1], len(joints)
+    key = (tuple(int(j) for j in joints), id(base), id(td))
+    blk = shared.get(key) if shared is not None else None
+    if blk is None:
+        blk = joint_block(td, extra, names, base, joints)
+        if shared is not None:
+            shared.clear()
+            shared[key] = blk
     lo, hi = np.concatenate([td.lower, bounds[0]]), np.concatenate([td.upper, bounds[1]])
-    # the same row scaling as fit_rigid_body (mechanics._scaled): each joint's residual s.d.
+    rows = np.flatnonzero(td.valid)
+    own = extra[np.ix_(rows, joints, np.arange(nb - P, extra.shape[2]))] / blk.scale[None, :, None]
+    own = own.reshape(-1, len(names) - nb)                                           # (M S, E)
+    block = np.concatenate([blk.shared_block, np.ones(len(names) - nb, bool)])
+    x = np.empty(len(names))
+    x[:nb] = base.values                                     # every other joint's part, as fitted
+    x[nb:] = 0.0
+    R, z, Q = block_factor(blk, own)
+    if block.any():
+        x[block] = bounded_linear(R, z, lo[block], hi[block])
+    res = (blk.y_f - Q @ (R @ x[block])).reshape(-1, S)      # the block's columns are Q R
+    residual = base.residual.reshape(-1, J).copy()
+    old = residual[:, joints]
+    residual[:, joints] = res
+    rss = base.rss - float(np.sum(old ** 2)) + float(np.sum(res ** 2))
+    se = np.full(len(names), np.nan)
+    se[: len(base.stderr)] = base.stderr
+    free = np.concatenate([td.refitted_beside_effects(), np.ones(len(names) - P, bool)])
+    n_free, n_rows, n_all = int(free.sum()), blk.y_f.size, int(td.valid.sum()) * J
+    if block.any() and stderr:  # Gauss-Markov with the whole fit's s^2 = rss / (n - p); J^T J is block diagonal
+        local, cond = covariance(R, rss * (n_rows - block.sum()) / max(n_all - n_free, 1), n_rows)
+        se[block] = local
+    else:
+        cond = base.condition
+        se[block] = np.nan  # not computed (stderr=False)
+    at = [n for n, val, a, b, f in zip(names, x, lo, hi, free)
+          if f and ((np.isfinite(a) and val - a < 1e-6) or (np.isfinite(b) and b - val < 1e-6))]
+    return Fit(list(names), x, se, rss, n_all, cond, at, residual.ravel())
+
+
+@dataclass
+class JointBlock:
+    """What every effect fitted at the same joints against the same base fit and kept terms
+    shares in :func:`fit_at_joints`: the rows (valid samples of ``joints``, each joint's scaled
+    by its residual's s.d.), the part of them the columns held or not acting there predict,
+    taken out (``y_f``), and the QR factors of the free columns acting there (the joints'
+    damping, the kept terms), in which an effect's own columns are then added by one
+    projection (:func:`block_factor`).  On humanoid38 the regressor slice it is made from is
+    the joints' samples times every body's columns: made once per joint set, not per effect."""
+    joints: tuple
+    scale: np.ndarray          # (S,) each joint's residual s.d. [N m]
+    y_f: np.ndarray            # (M S,) scaled residual less the non-block columns' part
+    q0: np.ndarray             # (M S, k) orthonormal basis of the shared block columns
+    r0: np.ndarray             # (k, k) their triangular factor
+    shared_block: np.ndarray   # (len(names) - E,) bool: which non-effect columns are in the block
+
+
+def block_factor(blk: JointBlock, own: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(R, Q^T y_f, Q) of [shared block columns | ``own`` (M S, E)] with Q = [q0 | q1]: ``own``
+    projected off q0 twice (classical Gram-Schmidt with reorthogonalisation, "twice is enough",
+    Giraud et al. 2005) and the rest factored, so R^T R is the block's Gram matrix and
+    |A x - y_f|^2 = |R x - Q^T y_f|^2 + |y_f|^2 - |Q^T y_f|^2 (lsq.bounded_linear)."""
+    q0, r0 = blk.q0, blk.r0
+    c = q0.T @ own
+    perp = own - q0 @ c
+    c2 = q0.T @ perp
+    perp -= q0 @ c2
+    q1, r1 = np.linalg.qr(perp)
+    k, e = r0.shape[1], own.shape[1]
+    R = np.zeros((k + e, k + e))
+    R[:k, :k], R[:k, k:], R[k:, k:] = r0, c + c2, r1
+    Q = np.concatenate([q0, q1], axis=1)
+    return R, Q.T @ blk.y_f, Q
+
+
+def joint_block(td: TorqueData, extra: np.ndarray, names: list, base: Fit, joints: np.ndarray) -> JointBlock:
+    """The :class:`JointBlock` of ``joints`` for effects whose columns follow ``extra``'s kept
+    terms (``len(base.values) - len(td.names)`` columns) and the base fit ``base``."""
+    P, n_kept = len(td.names), len(base.values) - len(td.names)
+    v = td.valid
     y_all = td.residual[v]
     scale = np.maximum(np.std(y_all[:, joints], axis=0), 1e-9)
     # only the regressor columns non-zero at these joints (a humanoid's arm joint: its own
@@ -97,44 +174,24 @@ def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, 
     # at the valid samples alone
     cols = np.flatnonzero(td.regressor_reach()[joints].any(axis=0))
     rows = np.flatnonzero(v)
-    sub = np.concatenate([cols, P + np.arange(E)])                                   # into names
-    A = np.concatenate([td.regressors[np.ix_(rows, joints, cols)], extra[np.ix_(rows, joints, np.arange(E))]],
+    A = np.concatenate([td.regressors[np.ix_(rows, joints, cols)], extra[np.ix_(rows, joints, np.arange(n_kept))]],
                        axis=2) / scale[None, :, None]
-    A = A.reshape(-1, sub.size)                                                      # (M S, |cols| + E)
+    A = A.reshape(-1, cols.size + n_kept)                                            # (M S, |cols| + kept)
     y = (y_all[:, joints] / scale).ravel()
-    held = np.concatenate([cal.values, np.zeros(E)])
-    free = np.concatenate([td.refitted_beside_effects(), np.ones(E, bool)])
+    free = np.concatenate([td.refitted_beside_effects(), np.ones(n_kept, bool)])
     # the free columns acting at these joints (a kept term's rounding there does not count: it
-    # stays at its base value), and the effect's own even where they are zero: least squares
-    # leaves a column without data at a start of its own choosing, as the whole fit does
-    acts = np.zeros(len(names), bool)
+    # stays at its base value)
+    acts = np.zeros(P + n_kept, bool)
     acts[cols] = True
-    acts[P:] = column_reach(extra, v)[joints].any(axis=0)
-    block = free & (acts | (np.arange(len(names)) >= len(base.values)))
-    x = np.empty(len(names))
-    x[: len(base.values)] = base.values                      # every other joint's part, as fitted
-    x[len(base.values):] = 0.0
-    in_block = block[sub]                                    # block lies within sub (acting or the effect's)
-    A_b = A[:, in_block]
-    y_f = y - A[:, ~in_block] @ np.where(free, x, held)[sub][~in_block]
-    x[block] = bounded_linear(A_b, y_f, lo[block], hi[block]) if block.any() else x[block]
-    res = (y_f - A_b @ x[block]).reshape(-1, S)
-    residual = base.residual.reshape(-1, J).copy()
-    old = residual[:, joints]
-    residual[:, joints] = res
-    rss = base.rss - float(np.sum(old ** 2)) + float(np.sum(res ** 2))
-    se = np.full(len(names), np.nan)
-    se[: len(base.stderr)] = base.stderr
-    n_free = int(free.sum())
-    if block.any() and stderr:  # Gauss-Markov with the whole fit's s^2 = rss / (n - p); J^T J is block diagonal
-        local, cond = covariance(A_b, rss * (y.size - block.sum()) / max(y_all.size - n_free, 1), y.size)
-        se[block] = local
-    else:
-        cond = base.condition
-        se[block] = np.nan  # not computed (stderr=False)
-    at = [n for n, val, a, b, f in zip(names, x, lo, hi, free)
-          if f and ((np.isfinite(a) and val - a < 1e-6) or (np.isfinite(b) and b - val < 1e-6))]
-    return Fit(list(names), x, se, rss, y_all.size, cond, at, residual.ravel())
+    acts[P:] = column_reach(extra[:, :, :n_kept], v)[joints].any(axis=0) if n_kept else acts[P:]
+    block = free & acts
+    sub = np.concatenate([cols, P + np.arange(n_kept)])
+    held = np.concatenate([td.calibration.values, np.zeros(n_kept)])
+    x = np.where(free, base.values, held)
+    in_block = block[sub]
+    y_f = y - A[:, ~in_block] @ x[sub][~in_block]
+    q0, r0 = np.linalg.qr(A[:, in_block])
+    return JointBlock(tuple(joints), scale, y_f, q0, r0, block)
 
 
 @dataclass
