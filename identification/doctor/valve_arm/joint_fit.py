@@ -85,14 +85,14 @@ def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, 
     over the same rows with the first columns of ``extra``; no free column couples one of
     ``joints`` to another joint); ``stderr=False``: see :func:`fit_effect`.  The rows and the
     factors every effect at these joints shares come from ``shared`` where an earlier effect
-    left them (one joint set at a time: on humanoid38 its rows can take a hundred MB)."""
+    left them (:class:`JointBlock`; one joint set kept at a time)."""
     names = list(td.names) + list(extra_names)
     P, nb = len(td.names), len(base.values)
     J, S = td.residual.shape[1], len(joints)
     key = (tuple(int(j) for j in joints), id(base), id(td))
     blk = shared.get(key) if shared is not None else None
     if blk is None:
-        blk = joint_block(td, extra, names, base, joints)
+        blk = joint_block(td, extra, base, joints)
         if shared is not None:
             shared.clear()
             shared[key] = blk
@@ -100,6 +100,8 @@ def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, 
     rows = np.flatnonzero(td.valid)
     own = extra[np.ix_(rows, joints, np.arange(nb - P, extra.shape[2]))] / blk.scale[None, :, None]
     own = own.reshape(-1, len(names) - nb)                                           # (M S, E)
+    # the effect's own columns are fitted even where they are zero: least squares leaves a
+    # column without data at a start of its own choosing, as the whole fit does
     block = np.concatenate([blk.shared_block, np.ones(len(names) - nb, bool)])
     x = np.empty(len(names))
     x[:nb] = base.values                                     # every other joint's part, as fitted
@@ -134,8 +136,9 @@ class JointBlock:
     by its residual's s.d.), the part of them the columns held or not acting there predict,
     taken out (``y_f``), and the QR factors of the free columns acting there (the joints'
     damping, the kept terms), in which an effect's own columns are then added by one
-    projection (:func:`block_factor`).  On humanoid38 the regressor slice it is made from is
-    the joints' samples times every body's columns: made once per joint set, not per effect."""
+    projection (:func:`block_factor`).  On humanoid38 the regressor slice it is made from holds
+    the joints' samples times every body column acting at them: made once per joint set, not
+    once per effect."""
     joints: tuple
     scale: np.ndarray          # (S,) each joint's residual s.d. [N m]
     y_f: np.ndarray            # (M S,) scaled residual less the non-block columns' part
@@ -162,7 +165,7 @@ def block_factor(blk: JointBlock, own: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return R, Q.T @ blk.y_f, Q
 
 
-def joint_block(td: TorqueData, extra: np.ndarray, names: list, base: Fit, joints: np.ndarray) -> JointBlock:
+def joint_block(td: TorqueData, extra: np.ndarray, base: Fit, joints: np.ndarray) -> JointBlock:
     """The :class:`JointBlock` of ``joints`` for effects whose columns follow ``extra``'s kept
     terms (``len(base.values) - len(td.names)`` columns) and the base fit ``base``."""
     P, n_kept = len(td.names), len(base.values) - len(td.names)
