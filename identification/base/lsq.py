@@ -78,9 +78,10 @@ def bounded_linear(A: np.ndarray, b: np.ndarray, lower, upper) -> np.ndarray:
     """The x within [lower, upper] minimising |A x - b| (scipy.optimize.lsq_linear), solved on
     the triangular factor of a tall A: with A = Q R (Q's k columns orthonormal),
     |A x - b|^2 = |R x - Q^T b|^2 + |b|^2 - |Q^T b|^2, so the same minimiser comes from a k x k
-    problem (Golub & Van Loan, Matrix Computations, 4th ed., section 5.3: least squares by QR).  lsq_linear's
-    iterations, each a factorisation of the whole m x k matrix where a bound binds, then cost
-    nothing next to the one QR (humanoid38's torque-balance scores: 60 000 rows, a few columns)."""
+    problem (Golub & Van Loan, Matrix Computations, 4th ed., section 5.3: least squares by
+    QR).  lsq_linear's iterations, each a factorisation of the whole m x k matrix where a bound
+    binds, then cost nothing next to the one QR (humanoid38's torque-balance fits: thousands of
+    rows a column)."""
     m, k = A.shape
     if m <= 2 * k:
         return lsq_linear(A, b, bounds=(lower, upper)).x

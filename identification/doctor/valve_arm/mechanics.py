@@ -435,8 +435,8 @@ def _unidentified(A2, y2, names, lo, hi, n_effects: int = 0) -> dict:
     every bounded fit and its Gauss-Markov errors are R's, once the part of y2 outside A2's
     columns (|y2|^2 - |Q^T y2|^2) is added to each residual sum of squares and the rows are
     counted as A2's (identification.base.lsq.bounded_linear).  One QR instead of a least-squares
-    solve over every row per column and per dropped parameter: on humanoid38 (a hundred and
-    fifty columns) these solves were most of each calibration of the rigid body."""
+    solve over every row per column and per dropped parameter: on humanoid38 (over a hundred
+    columns) these solves were most of each calibration of the rigid body."""
     Q, R = np.linalg.qr(A2)
     z = Q.T @ y2
     return unidentified_columns(R, z, names, lo, hi, n_effects, max(float(y2 @ y2 - z @ z), 0.0), y2.size)
