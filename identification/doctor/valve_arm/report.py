@@ -253,9 +253,10 @@ def chamber_detection_lines(limits: dict) -> list[str]:
         return []
     lines = ["", "## What the recordings could show at the chambers", "",
              f"The smallest effect of each family whose replayed change would remove {PNEU_KEEP:g} of its "
-             "chambers' held-out replay error (the keep rule), with that error taken as independent of the effect "
-             "and the replay linear over the probe step: approximate. A chamber with nothing named may still "
-             "carry an effect below its limit.", "",
+             "chambers' held-out replay error (the keep rule), on the calibrated model before any finding (a "
+             "chamber whose effect was found has a large error there, so a large limit), with that error taken "
+             "as independent of the effect and the replay linear over the probe step: approximate. A chamber with "
+             "nothing named may still carry an effect below its limit.", "",
              "| family | parameter | median | smallest (place) | largest (place) |", "| --- | --- | --- | --- | --- |"]
     for fam, s in rows:
         lim = finite[fam]
