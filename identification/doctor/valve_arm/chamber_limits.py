@@ -22,7 +22,7 @@ import numpy as np
 from .hypotheses import pneumatic_hypotheses
 from .hypothesis import place_of
 from .pneumatic import replay
-from .rules import PNEU_KEEP, DoctorRun
+from .rules import PNEU_KEEP, DoctorRun, paying_size
 from .screening import probe_groups
 
 
@@ -45,7 +45,6 @@ def chamber_detection_limits(run: DoctorRun) -> dict:
     hyps = first_forms(pneumatic_hypotheses(run.robot))
     pred, meas = replay(run.held, run.win_h, run.mods)
     r = (pred - meas) / run.sigma                                     # (W, H, C)
-    factor = np.sqrt(PNEU_KEEP / (1.0 - PNEU_KEEP))
     out: dict = {}
     for group in probe_groups(hyps, r.shape[2]):
         h0 = group[0]
@@ -56,7 +55,6 @@ def chamber_detection_limits(run: DoctorRun) -> dict:
         s = (replay(run.held, run.win_h, mods)[0] - pred) / run.sigma / probe
         entry = out.setdefault(h0.family, {"parameter": name, "detection_limit": {}})
         for h in group:
-            s_norm = float(np.sqrt(np.sum(s[:, :, h.chambers] ** 2)))
-            r_norm = float(np.sqrt(np.sum(r[:, :, h.chambers] ** 2)))
-            entry["detection_limit"][place_of(h.where)] = factor * r_norm / s_norm if s_norm > 0 else np.inf
+            entry["detection_limit"][place_of(h.where)] = paying_size(
+                PNEU_KEEP, float(np.sqrt(np.sum(r[:, :, h.chambers] ** 2))), float(np.sqrt(np.sum(s[:, :, h.chambers] ** 2))))
     return out

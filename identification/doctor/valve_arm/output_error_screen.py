@@ -22,7 +22,7 @@ from .output_error_fit import (
     window_rows,
 )
 from .replay import MechMods
-from .rules import DoctorRun
+from .rules import DoctorRun, paying_size
 from .screening import Scored
 
 #: the families fitted by output error (their first forms): the torque laws, the angle
@@ -167,11 +167,9 @@ def detection_limit(sens: np.ndarray, r: np.ndarray, fit: OutputErrorFit, family
     |r| / |S|.  Below it a silent joint is no evidence that the effect is absent: the recording
     cannot show it through this replay.  An approximation (the screen's errors, the mismatch
     taken as independent), stated as such in the report."""
-    t = naming_t(family)
-    g = max(floor, MIN_TRAIN_GAIN)
-    s_norm = float(np.sqrt(np.sum(sens ** 2)))
-    by_gain = np.sqrt(g / (1.0 - g)) * float(np.sqrt(np.sum(r ** 2))) / s_norm if s_norm > 0 else np.inf
-    return float(max(t * float(fit.stderr[0]), by_gain))
+    by_gain = paying_size(max(floor, MIN_TRAIN_GAIN), float(np.sqrt(np.sum(r ** 2))),
+                          float(np.sqrt(np.sum(sens ** 2))))
+    return float(max(naming_t(family) * float(fit.stderr[0]), by_gain))
 
 
 def screen_hypotheses(run: DoctorRun) -> tuple[dict, dict]:

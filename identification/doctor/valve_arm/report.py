@@ -223,45 +223,44 @@ def detection_lines(screen: dict) -> list[str]:
     """report.md's table of what the recordings could show at the joints: per screened family,
     the median, smallest and largest detection limit over the joints (output_error.
     detection_limit); none when the output-error screen did not run."""
-    rows = [(fam, s) for fam, s in screen.items() if s.get("detection_limit")]
-    if not rows:
-        return []
-    lines = ["", "## What the recordings could show at the joints", "",
-             "The smallest effect of each family the rules could name at a joint on these recordings (the "
-             f"larger of {OUTPUT_ERROR_MIN_T:g} standard errors of the screen's fit -- {OFFSET_MIN_T:g} for a "
-             "pressure offset, on the joint's cylinder and beside its subtree's mass -- and the size that would remove the screen's "
-             f"training-gain floor, at least {MIN_TRAIN_GAIN:g}, of the joint's replayed-angle error; "
-             "approximate: that error taken as independent of the effect). A joint with nothing named may "
-             "still carry an effect below its limit.", "",
-             "| family | parameter | median | smallest (joint) | largest (joint) |", "| --- | --- | --- | --- | --- |"]
-    for fam, s in rows:
-        lim = s["detection_limit"]
-        lo, hi = min(lim, key=lim.get), max(lim, key=lim.get)
-        lines.append(f"| {fam} | {s['parameter']} | {np.median(list(lim.values())):.3g} | "
-                     f"{lim[lo]:.3g} ({lo}) | {lim[hi]:.3g} ({hi}) |")
-    return lines
+    return _limit_table(
+        "joints", {fam: s["detection_limit"] for fam, s in screen.items() if s.get("detection_limit")}, screen,
+        "The smallest effect of each family the rules could name at a joint on these recordings (the "
+        f"larger of {OUTPUT_ERROR_MIN_T:g} standard errors of the screen's fit -- {OFFSET_MIN_T:g} for a "
+        "pressure offset, on the joint's cylinder and beside its subtree's mass -- and the size that would remove the screen's "
+        f"training-gain floor, at least {MIN_TRAIN_GAIN:g}, of the joint's replayed-angle error; "
+        "approximate: that error taken as independent of the effect). A joint with nothing named may "
+        "still carry an effect below its limit.", "joint")
 
 
 def chamber_detection_lines(limits: dict) -> list[str]:
     """report.md's table of what the held-out recording could show at the chambers: per
     pneumatic family, the median, smallest and largest size over its places that would pay the
-    keep rule (chamber_limits.chamber_detection_limits); none when it was not computed."""
+    keep rule (chamber_limits.chamber_detection_limits; a place whose probe changed nothing, inf
+    or None once written, left out); none when it was not computed."""
     finite = {fam: {k: v for k, v in s.get("detection_limit", {}).items() if v is not None and np.isfinite(v)}
               for fam, s in limits.items()}
-    rows = [(fam, s) for fam, s in limits.items() if finite[fam]]
-    if not rows:
+    return _limit_table(
+        "chambers", {fam: lim for fam, lim in finite.items() if lim}, limits,
+        f"The smallest effect of each family whose replayed change would remove {PNEU_KEEP:g} of its "
+        "chambers' held-out replay error (the keep rule), on the calibrated model before any finding (a "
+        "chamber whose effect was found has a large error there, so a large limit), with that error taken "
+        "as independent of the effect and the replay linear over the probe step: approximate. A chamber with "
+        "nothing named may still carry an effect below its limit.", "place")
+
+
+def _limit_table(where: str, limits: dict, tables: dict, explanation: str, place: str) -> list[str]:
+    """report.md's section "What the recordings could show at the ``where``": ``explanation``,
+    then per family of ``limits`` ({family: {place: limit}}, the parameter's name from
+    ``tables[family]``) the median, smallest and largest limit over its places; none without
+    any limit."""
+    if not limits:
         return []
-    lines = ["", "## What the recordings could show at the chambers", "",
-             f"The smallest effect of each family whose replayed change would remove {PNEU_KEEP:g} of its "
-             "chambers' held-out replay error (the keep rule), on the calibrated model before any finding (a "
-             "chamber whose effect was found has a large error there, so a large limit), with that error taken "
-             "as independent of the effect and the replay linear over the probe step: approximate. A chamber with "
-             "nothing named may still carry an effect below its limit.", "",
-             "| family | parameter | median | smallest (place) | largest (place) |", "| --- | --- | --- | --- | --- |"]
-    for fam, s in rows:
-        lim = finite[fam]
+    lines = ["", f"## What the recordings could show at the {where}", "", explanation, "",
+             f"| family | parameter | median | smallest ({place}) | largest ({place}) |", "| --- | --- | --- | --- | --- |"]
+    for fam, lim in limits.items():
         lo, hi = min(lim, key=lim.get), max(lim, key=lim.get)
-        lines.append(f"| {fam} | {s['parameter']} | {np.median(list(lim.values())):.3g} | "
+        lines.append(f"| {fam} | {tables[fam]['parameter']} | {np.median(list(lim.values())):.3g} | "
                      f"{lim[lo]:.3g} ({lo}) | {lim[hi]:.3g} ({hi}) |")
     return lines
 

@@ -184,6 +184,17 @@ def passes_keep_rule(values, stderrs) -> bool:
     return bool(np.all(np.isfinite(stderrs)) and np.all(stderrs > 0) and np.all(np.abs(values) >= MIN_T * stderrs))
 
 
+def paying_size(share: float, residual_norm: float, signature_norm: float) -> float:
+    """The size theta of an effect whose change (``signature_norm`` per unit) would remove
+    ``share`` of a squared error of norm ``residual_norm`` independent of it:
+    |s theta|^2 / (|s theta|^2 + |r|^2) = share, so theta = sqrt(share / (1 - share)) |r| / |s|;
+    inf where the change is nothing.  The detection limits of the joints
+    (output_error_screen.detection_limit) and of the chambers (chamber_limits)."""
+    if signature_norm <= 0:
+        return float("inf")
+    return float(np.sqrt(share / (1.0 - share)) * residual_norm / signature_norm)
+
+
 def min_predicted(n_chambers: int) -> float:
     """The score-test gain worth a full fit on a robot of ``n_chambers`` chambers.
 
