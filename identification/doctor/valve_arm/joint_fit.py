@@ -106,10 +106,12 @@ def fit_at_joints(td: TorqueData, extra: np.ndarray, extra_names: list, bounds, 
     x = np.empty(len(names))
     x[:nb] = base.values                                     # every other joint's part, as fitted
     x[nb:] = 0.0
-    R, z, Q = block_factor(blk, own)
+    R, z, q1 = block_factor(blk, own)
     if block.any():
         x[block] = bounded_linear(R, z, lo[block], hi[block])
-    res = (blk.y_f - Q @ (R @ x[block])).reshape(-1, S)      # the block's columns are Q R
+    fitted = R @ x[block]                                    # the block's columns are [q0 | q1] R
+    k = blk.q0.shape[1]
+    res = (blk.y_f - blk.q0 @ fitted[:k] - q1 @ fitted[k:]).reshape(-1, S)
     residual = base.residual.reshape(-1, J).copy()
     old = residual[:, joints]
     residual[:, joints] = res
@@ -139,16 +141,16 @@ class JointBlock:
     projection (:func:`block_factor`).  On humanoid38 the regressor slice it is made from holds
     the joints' samples times every body column acting at them: made once per joint set, not
     once per effect."""
-    joints: tuple
     scale: np.ndarray          # (S,) each joint's residual s.d. [N m]
     y_f: np.ndarray            # (M S,) scaled residual less the non-block columns' part
     q0: np.ndarray             # (M S, k) orthonormal basis of the shared block columns
     r0: np.ndarray             # (k, k) their triangular factor
+    z0: np.ndarray             # (k,) q0^T y_f
     shared_block: np.ndarray   # (len(names) - E,) bool: which non-effect columns are in the block
 
 
 def block_factor(blk: JointBlock, own: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(R, Q^T y_f, Q) of [shared block columns | ``own`` (M S, E)] with Q = [q0 | q1]: ``own``
+    """(R, Q^T y_f, q1) of [shared block columns | ``own`` (M S, E)] with Q = [q0 | q1]: ``own``
     projected off q0 twice (classical Gram-Schmidt with reorthogonalisation, "twice is enough",
     Giraud et al. 2005) and the rest factored, so R^T R is the block's Gram matrix and
     |A x - y_f|^2 = |R x - Q^T y_f|^2 + |y_f|^2 - |Q^T y_f|^2 (lsq.bounded_linear)."""
@@ -161,8 +163,7 @@ def block_factor(blk: JointBlock, own: np.ndarray) -> tuple[np.ndarray, np.ndarr
     k, e = r0.shape[1], own.shape[1]
     R = np.zeros((k + e, k + e))
     R[:k, :k], R[:k, k:], R[k:, k:] = r0, c + c2, r1
-    Q = np.concatenate([q0, q1], axis=1)
-    return R, Q.T @ blk.y_f, Q
+    return R, np.concatenate([blk.z0, q1.T @ blk.y_f]), q1
 
 
 def joint_block(td: TorqueData, extra: np.ndarray, base: Fit, joints: np.ndarray) -> JointBlock:
@@ -194,7 +195,7 @@ def joint_block(td: TorqueData, extra: np.ndarray, base: Fit, joints: np.ndarray
     in_block = block[sub]
     y_f = y - A[:, ~in_block] @ x[sub][~in_block]
     q0, r0 = np.linalg.qr(A[:, in_block])
-    return JointBlock(tuple(joints), scale, y_f, q0, r0, block)
+    return JointBlock(scale, y_f, q0, r0, q0.T @ y_f, block)
 
 
 @dataclass
