@@ -172,7 +172,8 @@ def bench_doctor_replay(seconds: float = 20.0, repeats: int = 3) -> dict:
     second of data (nominal model, 0.3 s windows restarted every 0.3 s, as the calibration and
     the screening replay them)."""
     from identification.doctor.valve_arm.data import prepare
-    from identification.doctor.valve_arm.pneumatic import PneumaticMods, Windows, replay
+    from identification.doctor.valve_arm.pneumatic import Windows, replay
+    from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 
     robot = load_robot("arm2")
     sim = Simulation(robot)

@@ -114,7 +114,7 @@ def concealment_r2(robot, rec) -> dict:
     """Held-out R^2 per channel of the true model *without* the effects (coupled replays
     restarted every second): >= 0.9 everywhere means aggregate statistics hide the effect."""
     from identification.doctor.valve_arm.data import prepare
-    from identification.doctor.valve_arm.pneumatic import PneumaticMods
+    from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
     from identification.doctor.valve_arm.replay import MechMods, coupled_replay
 
     exp = prepare(robot, rec)

@@ -9,7 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from identification.doctor.valve_arm.data import prepare
-from identification.doctor.valve_arm.pneumatic import SUPPLY_FLOW_ARG, ChamberModel, PneumaticMods, Windows, replay
+from identification.doctor.valve_arm.pneumatic import SUPPLY_FLOW_ARG, ChamberModel, Windows, replay
+from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot
 

@@ -9,7 +9,7 @@ from controllers.pid import ARM2_PIDF
 from controllers.reference import hand_moved
 from identification.doctor.valve_arm.angle_replay import angle_nrmse, pressure_driven_angles
 from identification.doctor.valve_arm.data import prepare
-from identification.doctor.valve_arm.pneumatic import PneumaticMods
+from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 from identification.doctor.valve_arm.replay import MechMods
 from pneumatics.effects.effect_set import EffectSet
 from pneumatics.robot import load_robot

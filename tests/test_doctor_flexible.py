@@ -12,7 +12,8 @@ from identification.doctor.valve_arm.flexible import (FLEX_FLOOR, SUPPLY_FLOOR, 
                                                       supply_correction)
 from identification.doctor.valve_arm.supply_time import SUPPLY_TIME_FLOOR, supply_in_time, supply_ripple
 from identification.doctor.valve_arm.flow_error import flow_blocks
-from identification.doctor.valve_arm.pneumatic import PneumaticMods, Windows
+from identification.doctor.valve_arm.pneumatic import Windows
+from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 from identification.doctor.valve_arm.rules import HORIZON
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot

@@ -65,7 +65,7 @@ def test_where_the_held_out_gains_mislead_the_calibrations_return_to_the_datashe
 
 
 def test_calibration_departure_is_zero_on_the_datasheet_and_grows_with_any_scale():
-    from identification.doctor.valve_arm.pneumatic import PneumaticMods
+    from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
     from identification.doctor.valve_arm.sensor_offsets import calibration_departure
 
     nominal = PneumaticMods.nominal(4)

@@ -9,7 +9,8 @@ from identification.doctor.valve_arm.calibrate import pressure_sigma
 from identification.doctor.valve_arm.data import prepare
 from identification.doctor.valve_arm.hypotheses import pneumatic_hypotheses
 from identification.doctor.valve_arm.joint_fit import folds_at_joint, two_fold_rss_at
-from identification.doctor.valve_arm.pneumatic import PneumaticMods, Windows
+from identification.doctor.valve_arm.pneumatic import Windows
+from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 from identification.doctor.valve_arm.screening import probe_groups, score_pneumatic
 from pneumatics.recording import read_csv
 from pneumatics.robot import load_robot

@@ -21,7 +21,7 @@ def arm2_exp():
 
 def test_corrected_pressures_give_the_torque_data_made_afresh(arm2_exp):
     from identification.doctor.valve_arm.mechanics import torque_data, with_pressures
-    from identification.doctor.valve_arm.pneumatic import PneumaticMods
+    from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
     from identification.doctor.valve_arm.sensor_offsets import apply_offset, corrected
 
     exp = arm2_exp

@@ -11,7 +11,7 @@ import pytest
 from identification.doctor.valve_arm.data import prepare, split
 from identification.doctor.valve_arm.fitted_model import heldout_replay, replay_mods
 from identification.doctor.valve_arm.hypotheses import mechanical_hypotheses, pneumatic_hypotheses
-from identification.doctor.valve_arm.pneumatic import PneumaticMods
+from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 from identification.doctor.valve_arm.replay import MechMods, coupled_replay
 from pneumatics.effects.from_finding import FORMS, FittedModelWarning, effect_set, form_of
 from pneumatics.errors import ConfigError, PneumasimError, UnknownNameError

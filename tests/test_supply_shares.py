@@ -54,7 +54,8 @@ def _changed(mods, u, supply_pa, field, c, x):
 @settings(max_examples=25, deadline=None)
 @given(_steps)
 def test_the_kept_shares_sum_to_the_recomputed_supply_flow(steps):
-    from identification.doctor.valve_arm.pneumatic import ChamberModel, PneumaticMods, effective_commands
+    from identification.doctor.valve_arm.pneumatic import ChamberModel, effective_commands
+    from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
     from identification.doctor.valve_arm.receiver import measured_supply_flow_reference
     from identification.doctor.valve_arm.supply_shares import SupplyShares
 
@@ -73,7 +74,8 @@ def test_the_kept_shares_sum_to_the_recomputed_supply_flow(steps):
 
 def test_a_change_at_one_chamber_recomputes_that_chamber_alone(monkeypatch):
     from identification.doctor.valve_arm import supply_shares
-    from identification.doctor.valve_arm.pneumatic import ChamberModel, PneumaticMods, effective_commands
+    from identification.doctor.valve_arm.pneumatic import ChamberModel, effective_commands
+    from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 
     exp = _experiment()
     mods = PneumaticMods.nominal(exp.robot.tables.n_chambers)
@@ -98,7 +100,8 @@ def test_under_a_held_receiver_path_a_cylinder_replays_alone_as_in_the_whole_rep
     (the receiver integrated from every chamber's flow) the replay refuses to split."""
     import pytest
 
-    from identification.doctor.valve_arm.pneumatic import PneumaticMods, Windows, chambers_independent, replay
+    from identification.doctor.valve_arm.pneumatic import Windows, chambers_independent, replay
+    from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
     from identification.doctor.valve_arm.receiver import experiment_key
     from identification.doctor.valve_arm.screening import own_cylinders
     from identification.doctor.valve_arm.hypotheses import pneumatic_hypotheses

@@ -10,7 +10,7 @@ of physics a nominal model may leave out.  Its module holds, in one place:
 * the **simulator hook** :meth:`Family.effect_set_entry`: what goes into an
   :class:`~pneumatics.effects.effect_set.EffectSet` at one place (:meth:`Family.add_to`);
 * the **doctor hooks**: :meth:`Family.mods_entry` (the fields of the doctor's chamber model,
-  ``identification.doctor.valve_arm.pneumatic.PneumaticMods``, for families the pressure replays test) or
+  ``identification.doctor.valve_arm.pneumatic_mods.PneumaticMods``, for families the pressure replays test) or
   :meth:`Family.torque_balance_term` (the torque a joint family adds to the rigid body's
   equation error, for families the torque balance tests);
 * the **parameter ranges** the benchmarks' case makers draw from (:meth:`Family.draw`, magnitudes

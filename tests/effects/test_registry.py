@@ -139,7 +139,7 @@ def test_every_effect_field_of_the_doctors_chamber_model_is_filled_by_a_family(a
     """No effect reaches the doctor's pressure replays except through a family definition."""
     import dataclasses
 
-    from identification.doctor.valve_arm.pneumatic import PneumaticMods
+    from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 
     nominal = PneumaticMods.nominal(arm2.tables.n_chambers)
     filled = set()

@@ -25,7 +25,8 @@ from controllers.pid import ARM2_PIDF
 from controllers.reference import hand_moved
 from identification.doctor.valve_arm.data import prepare
 from identification.doctor.valve_arm.mechanics import torque_data
-from identification.doctor.valve_arm.pneumatic import PneumaticMods, Windows, replay
+from identification.doctor.valve_arm.pneumatic import Windows, replay
+from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 from pneumatics.effects.effect_set import EffectSet
 from pneumatics.effects.registry import FAMILIES, get_family
 from pneumatics.runner import run

@@ -40,7 +40,7 @@ from pneumatics.effects.backlash import addresses, set_drive_state
 
 from .data import Experiment, fine_pressures
 from .naming import add_breakaway
-from .pneumatic import PneumaticMods
+from .pneumatic_mods import PneumaticMods
 from .replay import MechMods, drive_signs, replay_model, start_state, step_windows, window_starts
 from .rules import DoctorRun, Finding
 from .sensor_offsets import apply_offset

@@ -16,7 +16,8 @@ import numpy as np
 from scipy.sparse import lil_matrix
 
 from identification.base import lsq
-from .pneumatic import PneumaticMods, Windows, replay
+from .pneumatic import Windows, replay
+from .pneumatic_mods import PneumaticMods
 
 SCALE_BOUND = 1.35
 

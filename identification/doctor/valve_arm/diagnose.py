@@ -40,7 +40,8 @@ from .fitted_model import fitted_model
 from .locate import Located, locate, mods_without_all
 from .mechanics import fit_rigid_body, hold_nominal, torque_data
 from .output_error import search_output_error
-from .pneumatic import PneumaticMods, Windows
+from .pneumatic import Windows
+from .pneumatic_mods import PneumaticMods
 from .replay import MechMods, coupled_replay
 from .rules import HOLDOUT_SHARE, HORIZON, DoctorRun, Finding
 from .search import search_mechanical, search_pneumatic, start_torque_balance

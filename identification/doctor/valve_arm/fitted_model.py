@@ -23,7 +23,7 @@ from pneumatics.fitted_model import FittedEffect, FittedModel, pneumasim_version
 
 from .data import pool, prepare
 from .hypotheses import pneumatic_hypotheses
-from .pneumatic import PneumaticMods
+from .pneumatic_mods import PneumaticMods
 from .replay import MechMods, ReplayResult, coupled_replay
 from .search import MECH_ATTRS
 

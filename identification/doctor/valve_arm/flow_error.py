@@ -44,7 +44,8 @@ from pneumatics.medium import orifice_flow
 from pneumatics.tube_kernel import tube_path_compiled
 
 from .data import FINE_DT, Experiment, fine_pressures
-from .pneumatic import ChamberModel, PneumaticMods, drive_side_lengths, effective_commands, model_areas
+from .pneumatic import ChamberModel, drive_side_lengths, effective_commands, model_areas
+from .pneumatic_mods import PneumaticMods
 from .tubes import has_tubes, tube_valve
 from .receiver import receiver_trajectory
 

@@ -10,7 +10,8 @@ import numpy as np
 from identification.base.statistics import bootstrap_inclusion, locate_energy, locate_regime, robust_ceiling, windows
 
 from .flex_check import flexible_unexplained
-from .pneumatic import PneumaticMods, replay
+from .pneumatic import replay
+from .pneumatic_mods import PneumaticMods
 from .hypotheses import ANGLE_PROFILE_BIN_RAD
 from .output_error import locate_output_error
 from .regimes import chamber_regimes, joint_regimes

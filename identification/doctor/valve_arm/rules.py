@@ -15,7 +15,8 @@ from identification.base.lsq import Fit
 from pneumatics.robot import Robot
 
 from .data import Experiment
-from .pneumatic import PneumaticMods, Windows
+from .pneumatic import Windows
+from .pneumatic_mods import PneumaticMods
 from .screening import Scored
 from .supply_time import SupplyInTime
 

@@ -13,7 +13,7 @@ import numpy as np
 from .calibrate import fit_chambers
 from .data import Experiment
 from .hypotheses import pneumatic_hypotheses
-from .pneumatic import PneumaticMods
+from .pneumatic_mods import PneumaticMods
 from .rules import ISOLABLE, PNEU_KEEP, DoctorRun, Finding
 from .screening import chamber_rms, finding_params, fit_pneumatic, score_pneumatic
 

@@ -24,7 +24,8 @@ import numpy as np
 
 from .data import Experiment, with_pressures
 from .flexible import corrections
-from .pneumatic import PneumaticMods, Windows, replay
+from .pneumatic import Windows, replay
+from .pneumatic_mods import PneumaticMods
 from .supply_time import SupplyInTime, supply_in_time
 
 #: the twin's replays restart from the measured pressures this often [s] (as the published
