@@ -5,7 +5,7 @@ import pytest
 
 from identification.doctor.valve_arm.angle_replay import HORIZON_S, TIE_RATIO
 from identification.doctor.valve_arm.hypotheses import ANGLE_GAIN_MAX, Hypothesis, mechanical_hypotheses
-from identification.doctor.valve_arm.search import at_plausibility_cap
+from identification.doctor.valve_arm.acceptance import at_plausibility_cap
 from pneumatics.robot import load_robot
 
 

@@ -5,7 +5,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from identification.doctor.valve_arm.search import rivals, shared_by_chambers, worth_fitting
+from identification.doctor.valve_arm.acceptance import rivals, shared_by_chambers, worth_fitting
 
 
 def _scored(family, chambers, gain, params=("area",)):
@@ -69,7 +69,7 @@ def test_a_valve_leak_through_either_land_passes_the_keep_rule():
 
 
 def test_a_chamber_whose_held_out_replay_stands_out_has_its_best_other_family_fitted():
-    """search.standing_out_candidates: the chamber replaying 1.5 times the median held out gets
+    """acceptance.standing_out_candidates: the chamber replaying 1.5 times the median held out gets
     its best-scored hypothesis of a family not chosen there yet, whatever its score; chambers
     near the median, and one a finding explains, get none."""
     from types import SimpleNamespace
@@ -78,7 +78,7 @@ def test_a_chamber_whose_held_out_replay_stands_out_has_its_best_other_family_fi
 
     from identification.doctor.valve_arm.hypothesis import Hypothesis
     from identification.doctor.valve_arm.screening import Scored
-    from identification.doctor.valve_arm.search import standing_out_candidates
+    from identification.doctor.valve_arm.acceptance import standing_out_candidates
 
     def scored(family, c, gain):
         return Scored(Hypothesis(family, {"actuator": "x", "chamber": str(c)}, "pneumatic", [("p", 0, 0, 1, 1)], [c]),

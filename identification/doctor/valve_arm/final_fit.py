@@ -174,7 +174,7 @@ def _fall_back(run: DoctorRun, hyp, why: str, params: dict | None = None) -> Non
 
 def _may_fall_back(run: DoctorRun, hyp) -> bool:
     """Whether kept term ``hyp`` is a richer form whose family's first form qualified at its
-    place in the search as well (search.qualifies; else the finding is withdrawn whole: a first form
+    place in the search as well (acceptance.qualifies; else the finding is withdrawn whole: a first form
     the search would not have kept must not stand in, seen on humanoid38's clean shoulders)."""
     f = _owner(run.findings, hyp, run.refine)
     return _first_form(run, hyp) is not None and f is not None and f.first_form_pays

@@ -14,7 +14,7 @@ switch cycles (MIN_CYCLE_S), and a steady pulsation of the supply (pulsation_gai
 compressor's, outside the vocabulary, which flex_check reports) does not predict the held-out
 recording clearly better; then the chambers'
 calibration is fitted again beside it and the held-out pressure replays must pay as every
-other pneumatic finding's (search.accept_best's rules).
+other pneumatic finding's (acceptance.accept_best's rules).
 """
 from __future__ import annotations
 
