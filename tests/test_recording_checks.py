@@ -1,6 +1,7 @@
 """Recordings meet a model: gauge pressures, degrees, too short or too coarse recordings get
 one clear error naming the column, what it read and the fix (issue 18, input side, item 1)."""
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -63,6 +64,20 @@ def test_subatmospheric_pressures_warn(rec):
     dip = Recording(rec.time, {"p_a.shoulder": np.linspace(7e4, 5e5, len(rec))}, {}, "dip.csv")
     with pytest.warns(RecordingWarning, match="dip.csv: column p_a.shoulder reads down to 7e\\+04 Pa.* gauge"):
         check_pressures(dip, 1e5, 7e5)
+
+
+def test_subatmospheric_dips_beside_a_column_at_the_supply_do_not_warn(rec):
+    """A column near the supply (99th percentile within 0.75 bar of 7 bar) cannot be gauge, so
+    another's dip to 0.7 bar is a chamber expanded with its valve shut: no warning."""
+    n = len(rec)
+    cols = {"p_a.shoulder": np.linspace(7e4, 5e5, n), "p_b.shoulder": np.linspace(1e5, 6.9e5, n)}
+    cols["p_b.shoulder"][: n // 2] = 6.6e5
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RecordingWarning)
+        check_pressures(Recording(rec.time, cols, {}, "dip_beside_supply.csv"), 1e5, 7e5)
+    cols["p_b.shoulder"] = cols["p_b.shoulder"] - 1e5  # gauge: under the supply's 6 bar gauge
+    with pytest.warns(RecordingWarning, match="dip_beside_supply.csv: column p_a.shoulder .* gauge pressures\\?"):
+        check_pressures(Recording(rec.time, cols, {}, "dip_beside_supply.csv"), 1e5, 7e5)
 
 
 def test_pressures_that_never_reach_room_or_exceed_the_supply(rec):
