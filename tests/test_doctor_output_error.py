@@ -176,3 +176,27 @@ def test_an_effect_over_its_detection_limit_passes_the_naming_rules_and_one_well
             theta, se, gain = gauss_newton_step(A, mismatch + A[..., 0] * size)
             passes = abs(theta[0]) >= OUTPUT_ERROR_MIN_T * se[0] and gain >= MIN_TRAIN_GAIN
             assert passes == named
+
+
+def test_an_offset_the_torque_balance_refused_is_still_screened_on_the_angles(arm2):
+    """output_error_screen.screen_hypotheses: a pressure-sensor offset the replays found and the
+    torque balance contradicted is ruled out for the replays (``tried``) but screened on the
+    angles, which judge where the rigid body is held nominal; one ruled out otherwise is not,
+    nor one on a cylinder whose offset the replays kept."""
+    from types import SimpleNamespace
+
+    from identification.doctor.valve_arm.output_error_screen import screen_hypotheses
+    label = "pressure_sensor_offset@elbow.a"
+    elbow = arm2.joint_names.index("elbow")
+
+    def screened(tried=(), refused=(), findings=()):
+        run = SimpleNamespace(robot=arm2, tried=set(tried), refused_by_torque_balance=set(refused),
+                              findings=list(findings))
+        hyps, chamber_b = screen_hypotheses(run)
+        return ("pressure_sensor_offset", elbow) in hyps, elbow in chamber_b
+
+    assert screened() == (True, True)
+    assert screened(tried=[label]) == (False, True)
+    assert screened(tried=[label], refused=[label]) == (True, True)
+    kept = SimpleNamespace(family="pressure_sensor_offset", where={"actuator": "elbow", "chamber": "a"})
+    assert screened(tried=[label], refused=[label], findings=[kept]) == (False, False)

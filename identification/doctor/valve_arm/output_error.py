@@ -108,7 +108,9 @@ def search_output_error(run: DoctorRun, say) -> None:
         say(f"{finding.family} at {finding.where}: its joint's held-out angle NRMSE "
             f"{best.before:.4g} -> {best.after:.4g} (output error)")
         run.findings.append(finding)
-        run.tried.update(s.hyp.label for s, _ in cands if s.hyp.joint == best.scored.hyp.joint)
+        done = {s.hyp.label for s, _ in cands if s.hyp.joint == best.scored.hyp.joint}
+        run.tried.update(done)
+        run.refused_by_torque_balance -= done  # screened once here, the joint explained
         if finding.family == "pressure_sensor_offset":
             take_offset(run, finding)
 

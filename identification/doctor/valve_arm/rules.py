@@ -121,6 +121,10 @@ class DoctorRun:
     model before the findings is the one calibrated on the angles as read"""
     tried: set = field(default_factory=set)
     """hypothesis labels already kept or ruled out"""
+    refused_by_torque_balance: set = field(default_factory=set)
+    """labels of the pressure replays' sensor offsets the torque balance contradicted
+    (search.offset_seen_by_torque_balance): ruled out for the replays, yet left to the angles'
+    screen where the rigid body is held nominal (output_error_screen.screen_hypotheses)"""
     weak_supply: list = field(default_factory=list)
     """fitted supply_droop candidates of the rounds that kept nothing (weak_supply)"""
     base_extra: tuple | None = None

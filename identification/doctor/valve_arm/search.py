@@ -80,6 +80,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             # contradicts is the replays' stand-in for a pressure that really changed
             say(f"{finding.scored.hyp.label}: the torque balance contradicts a sensor offset there")
             run.tried.add(finding.scored.hyp.label)
+            run.refused_by_torque_balance.add(finding.scored.hyp.label)
             continue
         if finding.family == "line_dynamics":
             wall, wall_as_good = compliant_wall(run, finding)
