@@ -66,8 +66,9 @@ def check_pressures(rec: Recording, room_pa: float, supply_pa: float, columns=No
             f"{rec.source}: no pressure column reaches the room pressure {room_pa:.6g} Pa (highest: {top}, "
             f"max {np.max(rec[top]):.4g} Pa): gauge pressures or another unit; pressures must be Pa absolute; "
             f"{GAUGE_FIX}")
-    high = float(np.percentile(rec[top], 99))
-    could_be_gauge = max(float(np.percentile(rec[c], 99)) for c in cols) < supply_pa - ABSOLUTE_TOP_SHARE * room_pa
+    p99 = {c: float(np.percentile(rec[c], 99)) for c in cols}
+    high = p99[top]
+    could_be_gauge = max(p99.values()) < supply_pa - ABSOLUTE_TOP_SHARE * room_pa
     if low[lowest] < SUBATMOSPHERIC_SHARE * room_pa and could_be_gauge:
         warnings.warn(f"{said}, and only a chamber expanded with its valve shut reads below "
                       f"{SUBATMOSPHERIC_SHARE:g} x that (no column comes near the supply {supply_pa:.6g} Pa, "
