@@ -411,6 +411,26 @@ def test_a_weak_finding_that_leaves_as_much_as_it_took_is_a_projection():
     assert not leaves_as_much(corr(**{"valve opening": 0.21}), weak, floor=0.4)
 
 
+def test_what_a_chamber_leaves_is_no_other_law_when_its_twin_leaves_as_much():
+    """A chamber whose correction gains 0.77 on the calibrated model's own twin (nothing
+    missing: humanoid38's jaw.b, whose pressures the samples do not resolve) leaves 0.75 beside
+    a true valve lag that took 0.99 of its held-out error: under the twin's floor, not another
+    law's projection; the same remainder at a chamber whose twin gains nothing is."""
+    from types import SimpleNamespace
+
+    from identification.doctor.valve_arm.flex_check import leaves_as_much
+    from identification.doctor.valve_arm.flexible import TWIN_MARGIN, Correction, twin_floor
+
+    alone = {"valve opening": 0.75, "command history": 0.59}
+    c = Correction({"actuator": "jaw", "chamber": "b"}, 0.75, alone, alone, np.zeros(1), np.zeros(1), [9])
+    lag = SimpleNamespace(family="valve_lag", scored=SimpleNamespace(heldout_gain=0.994))
+    robot_floor = 0.6
+    assert twin_floor(c, {("jaw", "b"): 0.77}, robot_floor) == pytest.approx(0.77 + TWIN_MARGIN)
+    assert not leaves_as_much(c, lag, twin_floor(c, {("jaw", "b"): 0.77}, robot_floor))
+    assert leaves_as_much(c, lag, twin_floor(c, {("jaw", "b"): 0.05}, robot_floor))
+    assert twin_floor(c, None, robot_floor) == robot_floor
+
+
 @pytest.mark.slow
 def test_a_backlash_beside_a_heat_transfer_is_not_taken_for_its_remainder(tmp_path):
     """A backlash at the elbow beside a heat transfer at elbow chamber b (random-form generator,

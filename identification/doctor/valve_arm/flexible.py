@@ -225,10 +225,10 @@ def paying(corrs: list, twin: dict | None = None) -> list:
     gains = [c.best_group_gain for c in chambers]
     level = float(np.median(gains)) if chambers else 0.0
     robot_floor = max(FLEX_FLOOR, FLEX_STANDOUT * level, robust_ceiling(gains))
-    twin = twin or {}
+    by_key = {_key(c): c for c in chambers}
 
     def floor_at(key) -> float:
-        return max(robot_floor, twin.get(key, -np.inf) + TWIN_MARGIN)
+        return twin_floor(by_key[key], twin, robot_floor)
     gain_at = {_key(c): c.best_group_gain for c in chambers}
     out = [c for c in chambers if c.best_group_gain >= floor_at(_key(c)) and _stands_out_of_its_cylinder(c, gain_at, floor_at)]
     out += [c for c in corrs if "supply" in c.where and c.pays]
@@ -237,6 +237,14 @@ def paying(corrs: list, twin: dict | None = None) -> list:
 
 def _key(c: Correction) -> tuple:
     return c.where.get("actuator"), c.where.get("chamber")
+
+
+def twin_floor(c: Correction, twin: dict | None, floor: float) -> float:
+    """The least gain chamber correction ``c`` must reach to say something is missing there:
+    ``floor`` (the robot's), and TWIN_MARGIN above what the same correction gains on the
+    calibrated model's twin of the recordings (``twin``: {(actuator, chamber): gain},
+    twin.twin_gains), which has nothing missing."""
+    return max(floor, (twin or {}).get(_key(c), -np.inf) + TWIN_MARGIN)
 
 
 #: a chamber's correction must pay this much more on the recording than on the calibrated
