@@ -53,3 +53,21 @@ def test_an_external_leak_over_its_stated_limit_is_named_and_one_under_it_is_not
     assert (("external_leak", {"actuator": "elbow", "chamber": "a"}) in found) is named, found
     if not named:
         assert not found
+
+
+def test_what_the_calibration_can_mimic_is_taken_off_an_effects_signature():
+    """A signature that is 2 x the exhaust area's plus a part no calibration parameter has keeps
+    that part alone; one the calibration spans entirely keeps nothing; windows with a NaN are
+    left out."""
+    from identification.doctor.valve_arm.chamber_limits import off_calibration
+
+    rng = np.random.default_rng(3)
+    cal = rng.normal(size=(3, 40, 30))
+    own = rng.normal(size=(40, 30))
+    own -= np.einsum("kwh,k->wh", cal, np.linalg.lstsq(cal.reshape(3, -1).T, own.ravel(), rcond=None)[0])
+    left = off_calibration(2.0 * cal[1] + own, cal)
+    assert left == pytest.approx(own.ravel(), abs=1e-9)
+    assert np.linalg.norm(off_calibration(cal[0] - 0.5 * cal[2], cal)) == pytest.approx(0.0, abs=1e-9)
+    s = 2.0 * cal[1] + own
+    s[5, 3] = np.nan
+    assert off_calibration(s, cal).size == 39 * 30

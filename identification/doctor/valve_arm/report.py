@@ -243,7 +243,8 @@ def chamber_detection_lines(limits: dict) -> list[str]:
     return _limit_table(
         "chambers", {fam: lim for fam, lim in finite.items() if lim}, limits,
         f"The smallest effect of each family whose replayed change would remove {PNEU_KEEP:g} of its "
-        "chambers' held-out replay error (the keep rule), on the calibrated model before any finding (a "
+        "chambers' held-out replay error (the keep rule), counting only the part of that change the "
+        "chambers' calibration cannot mimic, on the calibrated model before any finding (a "
         "chamber whose effect was found has a large error there, so a large limit), with that error taken "
         "as independent of the effect and the replay linear over the probe step: approximate. A chamber with "
         "nothing named may still carry an effect below its limit.", "place")
