@@ -19,9 +19,9 @@ from .rules import DoctorRun, Finding
 #: cm^3 beside arm2's 3-4 cm^3); a delay whose fit adds less than this fraction of the
 #: chamber's dead volume is the valve's dead time.  The line's volume is the fit's to 1 % (its
 #: error bar): what sets this floor is the volume a delay of another form puts in the tube.
-#: arm2, development cases of the random-form generator (runs 7-9, 10-25 of
+#: arm2, development cases of the random-form generator (runs 7-24 of
 #: doctor_generalization_benchmark, fitted again on 2026-12-06): valve dead times and
-#: second-order spools fitted as a line added 0-7.4 % (13 cases; 2-8 % on earlier seeds), lines
+#: second-order spools fitted as a line added 0-7.4 % (15 cases; 2-8 % on earlier seeds), lines
 #: of three forms 26-103 %.  humanoid38's larger chambers (4-5 cm^3) hold the benchmark's
 #: smaller tubes at a few per cent more than that: two true lines there (8 and 13 % of their
 #: chamber; delays 2.8 and 3.7 ms), fitted at 11 and 14 %, were named the valve's dead time
