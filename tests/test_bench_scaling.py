@@ -1,7 +1,6 @@
 """The scaling study's synthetic model is a working pneumatic robot: a bank of arm2 shoulder
 cylinders, each turning its own pendulum, with the sign convention of every model (chamber a
 drives the joint positive) and no MuJoCo warnings."""
-import numpy as np
 
 from pneumasim.bench_scaling import cylinder_bank
 from pneumatics.sim import Simulation

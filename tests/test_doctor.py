@@ -119,7 +119,7 @@ def test_gaps_in_time_are_refused(tmp_path):
 
 def test_pooled_recordings_keep_their_joins_out_of_windows_and_torque_samples():
     from identification.doctor.valve_arm.data import pool, prepare
-    from identification.doctor.valve_arm.mechanics import torque_data
+    from identification.doctor.valve_arm.torque_balance import torque_data
     from identification.doctor.valve_arm.pneumatic import Windows
 
     robot = load_robot("arm2")

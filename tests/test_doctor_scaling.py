@@ -48,7 +48,8 @@ def test_groups_are_disjoint_and_few_on_the_humanoid():
 def test_effect_fits_at_one_joint_equal_the_whole_fit():
     from identification.doctor.valve_arm.hypotheses import mechanical_hypotheses
     from identification.doctor.valve_arm.joint_fit import coupled_joints, fit_at_joints, fit_effect
-    from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
+    from identification.doctor.valve_arm.mechanics import fit_rigid_body
+    from identification.doctor.valve_arm.torque_balance import torque_data
     from identification.doctor.valve_arm.screening import stack_terms, torque_rms
     from identification.doctor.valve_arm.torque_judge import crossval_torque
     from identification.doctor.valve_arm.screening import Scored
@@ -106,8 +107,8 @@ def test_the_rigid_body_fit_equals_its_reference_with_every_column():
     same values, errors, RSS and residual as the reference that fits one matrix of every
     column, with no effect and with each mechanical hypothesis's terms."""
     from identification.doctor.valve_arm.hypotheses import mechanical_hypotheses
-    from identification.doctor.valve_arm.mechanics import (fit_rigid_body, fit_rigid_body_reference, hold_nominal,
-                                                            torque_data)
+    from identification.doctor.valve_arm.mechanics import fit_rigid_body, fit_rigid_body_reference, hold_nominal
+    from identification.doctor.valve_arm.torque_balance import torque_data
     from identification.doctor.valve_arm.screening import stack_terms
 
     robot = load_robot("arm2")
@@ -131,7 +132,8 @@ def test_the_unidentified_parameters_from_the_triangular_factor_are_those_from_e
     standard error one at a time) made on the scaled rows' QR factor equals the choice made on
     the rows: on arm2's sample, and on it with a column made a copy of another and a column
     too small to identify, so both kinds of choice are made."""
-    from identification.doctor.valve_arm.mechanics import _scaled, _unidentified, torque_data, unidentified_columns
+    from identification.doctor.valve_arm.mechanics import _scaled, _unidentified, unidentified_columns
+    from identification.doctor.valve_arm.torque_balance import torque_data
 
     robot = load_robot("arm2")
     td = torque_data(prepare(robot, read_csv(SAMPLE).slice(0, 30)))
@@ -155,7 +157,8 @@ def test_a_kept_terms_rounding_at_another_joint_neither_couples_nor_moves_it():
     refit from its rounding alone would make it anything), as the whole fit has it."""
     from identification.doctor.valve_arm.hypotheses import mechanical_hypotheses
     from identification.doctor.valve_arm.joint_fit import coupled_joints, fit_effect
-    from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
+    from identification.doctor.valve_arm.mechanics import fit_rigid_body
+    from identification.doctor.valve_arm.torque_balance import torque_data
     from identification.doctor.valve_arm.screening import stack_terms
 
     robot = load_robot("arm2")
@@ -192,7 +195,8 @@ def test_coupled_joints_follow_the_kept_terms():
 
 def test_end_stop_grid_two_fold_rss_equals_whole_fits():
     from identification.doctor.valve_arm import profiled as H
-    from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
+    from identification.doctor.valve_arm.mechanics import fit_rigid_body
+    from identification.doctor.valve_arm.torque_balance import torque_data
 
     robot = load_robot("arm2")
     exp = prepare(robot, read_csv(SAMPLE).slice(0, 30))
@@ -216,7 +220,8 @@ def test_a_stop_one_folds_blocks_never_touch_leaves_that_fold_at_the_base():
     (least squares would leave k and b at a start of its own choosing), so that fold's test
     residual is the base fit's; the other fold's is the fit's as usual."""
     from identification.doctor.valve_arm import profiled as H
-    from identification.doctor.valve_arm.mechanics import fit_rigid_body, torque_data
+    from identification.doctor.valve_arm.mechanics import fit_rigid_body
+    from identification.doctor.valve_arm.torque_balance import torque_data
 
     robot = load_robot("arm2")
     exp = prepare(robot, read_csv(SAMPLE).slice(0, 30))

@@ -1,4 +1,4 @@
-"""Torque data of a pressure-corrected recording derived from the first (mechanics.with_pressures):
+"""Torque data of a pressure-corrected recording derived from the first (torque_balance.with_pressures):
 the same as made afresh, since the force law is linear in the pressures and nothing else depends
 on them; a different motion is refused."""
 import dataclasses
@@ -20,7 +20,7 @@ def arm2_exp():
 
 
 def test_corrected_pressures_give_the_torque_data_made_afresh(arm2_exp):
-    from identification.doctor.valve_arm.mechanics import torque_data, with_pressures
+    from identification.doctor.valve_arm.torque_balance import torque_data, with_pressures
     from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
     from identification.doctor.valve_arm.sensor_offsets import apply_offset, corrected
 
@@ -41,7 +41,8 @@ def test_corrected_pressures_give_the_torque_data_made_afresh(arm2_exp):
 
 
 def test_another_motion_or_a_calibrated_copy_is_made_afresh(arm2_exp):
-    from identification.doctor.valve_arm.mechanics import calibrate_rigid_body, torque_data, with_pressures
+    from identification.doctor.valve_arm.mechanics import calibrate_rigid_body
+    from identification.doctor.valve_arm.torque_balance import torque_data, with_pressures
 
     exp = arm2_exp
     td = torque_data(exp)

@@ -7,7 +7,8 @@ from scipy.interpolate import make_smoothing_spline
 from controllers.pid import ARM2_PIDF
 from controllers.reference import hand_moved
 from identification.doctor.valve_arm.data import prepare
-from identification.doctor.valve_arm.mechanics import calibrate_rigid_body, torque_data
+from identification.doctor.valve_arm.mechanics import calibrate_rigid_body
+from identification.doctor.valve_arm.torque_balance import torque_data
 from identification.base.smoothing import spline_cutoff_hz
 from pneumatics.robot import load_robot
 from pneumatics.runner import run

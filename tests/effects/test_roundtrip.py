@@ -8,7 +8,7 @@ effect must reproduce it, and the replay without the effect must not:
 * chamber, actuator and supply families (and backlash): the pressure replays
   (identification.doctor.valve_arm.pneumatic.replay, restarted every 0.3 s from the recorded pressures) with
   the chamber model the family fills (Family.apply_to_mods);
-* joint families: the torque balance (identification.doctor.valve_arm.mechanics.torque_data): the equation
+* joint families: the torque balance (identification.doctor.valve_arm.torque_balance.torque_data): the equation
   error tau_act - tau_inv must equal the torque the family says the effect adds
   (Family.torque_balance_term).
 
@@ -24,7 +24,7 @@ import pytest
 from controllers.pid import ARM2_PIDF
 from controllers.reference import hand_moved
 from identification.doctor.valve_arm.data import prepare
-from identification.doctor.valve_arm.mechanics import torque_data
+from identification.doctor.valve_arm.torque_balance import torque_data
 from identification.doctor.valve_arm.pneumatic import Windows, replay
 from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 from pneumatics.effects.effect_set import EffectSet

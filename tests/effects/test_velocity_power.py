@@ -5,7 +5,7 @@ random-form generator with it, where it had named a Coulomb level plus a linear 
 import numpy as np
 import pytest
 
-from identification.doctor.valve_arm.mechanics import torque_data
+from identification.doctor.valve_arm.torque_balance import torque_data
 from identification.doctor.valve_arm.profiled import velocity_power_hypotheses
 from pneumatics.effects.registry import get_family
 

@@ -38,7 +38,8 @@ from .final_fit import (final_calibration, final_joint_fit, follow_angle_sensors
                         withdraw_angle_worsening, withdraw_worsening, worsening)
 from .fitted_model import fitted_model
 from .locate import Located, locate, mods_without_all
-from .mechanics import fit_rigid_body, hold_nominal, torque_data
+from .mechanics import fit_rigid_body, hold_nominal
+from .torque_balance import torque_data
 from .output_error import search_output_error
 from .pneumatic import Windows
 from .pneumatic_mods import PneumaticMods

@@ -19,7 +19,8 @@ from scipy.optimize import lsq_linear
 
 from identification.base.lsq import Fit, bounded_linear, covariance
 
-from .mechanics import TorqueData, fit_rigid_body
+from .mechanics import fit_rigid_body
+from .torque_balance import TorqueData
 
 
 #: a column's entries at a joint below this fraction of its largest count as zero (coupled_joints)

@@ -104,7 +104,7 @@ class DoctorRun:
     cfit: Fit
     """the chambers' calibration fit (log scales)"""
     td: object
-    """torque-equation data of the training data (mechanics.TorqueData)"""
+    """torque-equation data of the training data (torque_balance.TorqueData)"""
     td_h: object
     """... of the held-out data"""
     rfit: Fit
@@ -113,7 +113,7 @@ class DoctorRun:
     """Findings kept so far, in the order they were found"""
     fresh_torque: tuple = None
     """((torque data, its experiment), the same of the held-out data) as first made, before any
-    calibration or correction: what mechanics.with_pressures derives a pressure-corrected copy from"""
+    calibration or correction: what torque_balance.with_pressures derives a pressure-corrected copy from"""
     read: tuple = None
     """(training, held-out) experiments with the actuator lengths of the angles as read and the
     chamber model calibrated on them, kept while ``exp``, ``held`` and ``mods`` take the lengths

@@ -17,7 +17,8 @@ from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses, smooth_torq
 from .angle_replay import angle_rule_verdict, yardstick_angle
 from .chamber_limits import chamber_detection_limits
 from .compliance import compliant_wall, wall_alternative
-from .mechanics import calibrate_rigid_body, fit_rigid_body, torque_data, with_pressures
+from .mechanics import calibrate_rigid_body, fit_rigid_body
+from .torque_balance import torque_data, with_pressures
 from .naming import friction_named, line_named
 from .rules import END_STOP_HYPOTHESES, MAX_ROUNDS, MECH_KEEP, PNEU_KEEP, YARDSTICK_SHARE, DoctorRun, Finding, min_predicted
 from .sensor_offsets import corrected, offset_place
@@ -134,7 +135,7 @@ def corrected_torque_data(run: DoctorRun, mods) -> tuple:
     """(fitting, held-out) torque data of the run's recordings with the sensor offsets of
     ``mods`` taken out of the measured pressures, the rigid body held nominal or not as the
     run's torque data are (``td.held_nominal``); derived from the run's first torque data where
-    the motion is the same (mechanics.with_pressures)."""
+    the motion is the same (torque_balance.with_pressures)."""
     hold = run.td.held_nominal
     out = []
     for i, exp in enumerate((run.exp, run.held)):
