@@ -53,6 +53,17 @@ def test_an_external_leak_over_its_stated_limit_is_named_and_one_under_it_is_not
     assert (("external_leak", {"actuator": "elbow", "chamber": "a"}) in found) is named, found
     if not named:
         assert not found
+    # the report keeps every fitted candidate's held-out gain and verdict
+    records = run.pneumatic_candidates
+    assert records and all(r["verdict"].startswith(("named", "refused: ", "passed")) for r in records)
+    for r in records:
+        if r["verdict"].startswith("refused: held-out gain"):
+            assert r["heldout_gain"] < search.PNEU_KEEP
+    leak = [r for r in records if r["verdict"] == "named" and r["chambers"] == ["elbow.a"]]
+    assert bool(leak) is named
+    if named:
+        assert leak[0]["hypothesis"].startswith("external_leak") and leak[0]["heldout_gain"] >= search.PNEU_KEEP
+        assert leak[0]["params"]["leak_area_m2"]["value"] == pytest.approx(size, rel=0.3)
 
 
 def test_what_the_calibration_can_mimic_is_taken_off_an_effects_signature():

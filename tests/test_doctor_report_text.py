@@ -95,3 +95,17 @@ def test_report_md_says_how_small_a_chamber_effect_the_held_out_recording_could_
     assert row == "| valve_leak | leak_area_m2 | 4e-09 | 2e-09 (jaw.a) | 8e-09 (jaw.b) |"
     assert not [line for line in lines if line.startswith("| piston_leak")]
     assert chamber_detection_lines({}) == []
+
+
+def test_report_md_says_why_each_chamber_effect_fitted_was_named_or_not():
+    """One row per fitted pneumatic candidate, round by round, with its held-out gain and verdict."""
+    from identification.doctor.valve_arm.report import pneumatic_candidate_lines
+
+    records = [{"hypothesis": "external_leak@elbow.a", "round": 1, "predicted_gain": 0.31, "heldout_gain": 0.168,
+                "verdict": "refused: held-out gain 0.168 under 0.2"},
+               {"hypothesis": "valve_leak@elbow.a", "round": 1, "predicted_gain": 0.12, "heldout_gain": 0.41,
+                "verdict": "named"}]
+    lines = pneumatic_candidate_lines(records)
+    assert "| 1 | external_leak@elbow.a | 0.310 | 0.168 | refused: held-out gain 0.168 under 0.2 |" in lines
+    assert lines[-1] == "| 1 | valve_leak@elbow.a | 0.120 | 0.410 | named |"
+    assert pneumatic_candidate_lines([]) == []

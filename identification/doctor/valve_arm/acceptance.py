@@ -44,26 +44,33 @@ def accept_best(candidates: list, keep: float) -> Finding | None:
 
 
 def qualifies(s: Scored, keep: float) -> bool:
-    """Whether scored candidate ``s`` pays: gain on its own channels >= ``keep``, its
-    parameters >= MIN_T standard errors, none held at its least physical value or at a
-    plausibility cap, and a supply effect shared by the chambers."""
+    """Whether scored candidate ``s`` pays (:func:`refusal` finds no rule it fails)."""
+    return refusal(s, keep) is None
+
+
+def refusal(s: Scored, keep: float) -> str | None:
+    """The first keep rule fitted candidate ``s`` fails, in words, or None when it pays: gain
+    on its own channels >= ``keep``, its parameters >= MIN_T standard errors, none held at its
+    least physical value or at a plausibility cap, and a supply effect shared by the chambers."""
     if s.heldout_gain < keep:
-        return False
+        return f"held-out gain {s.heldout_gain:.3f} under {keep:g}"
     if s.own_gain is not None and s.own_gain < 0.5 * keep:
-        return False  # the refitted calibration paid, not the effect
+        # the refitted calibration paid, not the effect
+        return f"the effect itself took {s.own_gain:.3f} of it, under {0.5 * keep:g}: the refitted calibration paid"
     if "supply" in s.hyp.where and not shared_by_chambers(s):
-        return False  # one chamber's effect standing in for the supply every chamber shares
+        return "not shared by the chambers"  # one chamber's effect standing in for the supply
     k = len(s.hyp.params)
     values, ses = s.fit.values[-k:], s.fit.stderr[-k:]
     if not (keeps(s.hyp, values, ses) or tube_volume_significant(s)):
         # a parameter it needs is not significant (or stuck at a bound, where least squares
         # gives no error bar: then the gain came from the calibration refitted with it)
-        return False
+        return f"a parameter under {MIN_T:g} standard errors or at a bound"
     lower = np.array([p[2] for p in s.hyp.params])
     if np.any((lower > 0) & (values <= lower * (1 + 1e-6))):
-        return False  # held at its least physical value (an end stop softer than a stop)
-    # the linear torque fit wants more than the sensor can be off by
-    return not (s.hyp.kind == "mechanical" and at_plausibility_cap(s.hyp, values))
+        return "held at its least physical value"  # an end stop softer than a stop
+    if s.hyp.kind == "mechanical" and at_plausibility_cap(s.hyp, values):
+        return "at a plausibility cap"  # the linear torque fit wants more than the sensor can be off by
+    return None
 
 
 def at_plausibility_cap(hyp, values) -> bool:
@@ -174,3 +181,21 @@ def worth_fitting(cands: list) -> list:
         labels += [s.hyp.label] if new else []
         out.append(s)
     return out
+
+
+def pneumatic_record(run: DoctorRun, s: Scored, round_: int, keep: float, chosen: Scored | None) -> dict:
+    """What the report keeps of one fitted pneumatic candidate of round ``round_``: its score,
+    its fit, its held-out gains and its verdict (chosen by :func:`accept_best`, the rule it
+    failed, or passed and beaten) -- the answer to 'why was nothing named at this chamber?',
+    and the held-out gains a keep threshold set from a robot's clean recordings would need.
+    The search overwrites a chosen candidate's verdict where a later check refuses it."""
+    why = refusal(s, keep)
+    verdict = ("named" if s is chosen else f"refused: {why}" if why
+               else f"passed, the round's best was {chosen.hyp.label}" if chosen is not None else "passed")
+    names = run.robot.chamber_names
+    return {"hypothesis": s.hyp.label, "round": round_ + 1,
+            "chambers": [f"{names[c][0]}.{names[c][1]}" for c in s.hyp.chambers],
+            "predicted_gain": float(s.predicted_gain), "heldout_gain": float(s.heldout_gain),
+            "rank_gain": None if s.rank_gain is None else float(s.rank_gain),
+            "own_gain": None if s.own_gain is None else float(s.own_gain),
+            "judged_by": s.judged_by, "params": finding_params(s), "verdict": verdict}

@@ -223,6 +223,7 @@ def _report(run: DoctorRun, located: Located, replays: dict, calibrated: dict, f
             "rigid_body_calibration_replay": run.body_check,
             "output_error_screen": run.output_error_screen,
             "chamber_detection_limit": run.chamber_detection,
+            "pneumatic_candidates": run.pneumatic_candidates,
             "output_error_candidates": run.output_error_candidates,
             **tests,
             "ljung_box_q_heldout_pressure": {k: v["after"]["q"] for k, v in tests["ljung_box_heldout_pressure"].items()},

@@ -266,6 +266,22 @@ def _limit_table(where: str, limits: dict, tables: dict, explanation: str, place
     return lines
 
 
+def pneumatic_candidate_lines(records: list) -> list[str]:
+    """The report's table of the chamber effects fitted and judged on held-out replays
+    (acceptance.pneumatic_record), each with why it was or was not named; none when none was fitted."""
+    if not records:
+        return []
+    lines = ["", "## Chamber effects fitted and judged on held-out pressure replays", "",
+             f"Each round fits the hypotheses the score test (or a chamber's held-out replay) points at; one is "
+             f"named when it removes {PNEU_KEEP:g} of its chambers' held-out mean square and its parameters pass "
+             "the keep rule. Round 0 is the compressor's receiver, tried before the rounds.", "",
+             "| round | hypothesis | predicted gain | held-out gain | verdict |", "| --- | --- | --- | --- | --- |"]
+    for r in records:
+        lines.append(f"| {r['round']} | {r['hypothesis']} | {r['predicted_gain']:.3f} | {r['heldout_gain']:.3f} "
+                     f"| {r['verdict']} |")
+    return lines
+
+
 def candidate_lines(records: list) -> list[str]:
     """The report's table of the joint effects fitted to the replayed angles (output_error.
     candidate_record), each with why it was or was not named; none when the search did not run."""
@@ -319,6 +335,7 @@ def _markdown(report, pngs, fitted: bool = False) -> str:
                          + carried)
     else:
         lines.append("Nothing above the noise floor is left unexplained.")
+    lines += pneumatic_candidate_lines(report["diagnostics"].get("pneumatic_candidates", []))
     lines += candidate_lines(report["diagnostics"].get("output_error_candidates", []))
     lines += detection_lines(report["diagnostics"].get("output_error_screen", {}))
     lines += chamber_detection_lines(report["diagnostics"].get("chamber_detection_limit", {}))

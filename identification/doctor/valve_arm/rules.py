@@ -151,6 +151,9 @@ class DoctorRun:
     chamber_detection: dict = field(default_factory=dict)
     """family -> each chamber's (or place's) smallest size the held-out keep rule could pass
     (chamber_limits.chamber_detection_limits)"""
+    pneumatic_candidates: list = field(default_factory=list)
+    """every pneumatic candidate fitted and judged on held-out replays, round by round, with its
+    verdict (acceptance.pneumatic_record)"""
     output_error_candidates: list = field(default_factory=list)
     """every candidate fitted by output error, round by round, with its verdict (output_error.candidate_record)"""
     finals: list = field(default_factory=list)

@@ -11,7 +11,7 @@ import numpy as np
 
 from identification.base.statistics import robust_ceiling
 
-from .acceptance import accept_best, qualifies, rivals, shared_by_chambers, standing_out_candidates, worth_fitting
+from .acceptance import accept_best, pneumatic_record, qualifies, rivals, shared_by_chambers, standing_out_candidates, worth_fitting
 from .flex_check import block_samples, partial_projection, suggested_candidates
 from .hypotheses import mechanical_hypotheses, pneumatic_hypotheses, smooth_torque_yardstick
 from .angle_replay import angle_rule_verdict, yardstick_angle
@@ -67,19 +67,24 @@ def search_pneumatic(run: DoctorRun, say) -> None:
         for s in top:
             s.rank_gain = 1.0 - np.sum(s.heldout_after[union] ** 2) / max(np.sum(s.heldout_before[union] ** 2), 1e-300)
         finding = accept_best(top, PNEU_KEEP)
+        records = [pneumatic_record(run, s, rnd, PNEU_KEEP, finding and finding.scored) for s in top]
+        run.pneumatic_candidates += records
         if finding is None:
             break
+        chosen = records[[i for i, s in enumerate(top) if s is finding.scored][0]]
         if partial_projection(run, finding):
             # the flexible correction at its place still pays through other inputs: not
             # named; the place is reported unexplained after the search (flex_check), and no
             # other family is tried there (as search._keep_mechanical does at a joint)
             say(f"{finding.scored.hyp.label}: a partial projection of what the flexible correction there takes up")
+            chosen["verdict"] = "refused: a partial projection of what the flexible correction there takes up"
             close_place(run, finding, scored)
             continue
         if finding.family == "pressure_sensor_offset" and not offset_seen_by_torque_balance(run, finding):
             # a sensor offset changes what is read, not the force: one the torque balance
             # contradicts is the replays' stand-in for a pressure that really changed
             say(f"{finding.scored.hyp.label}: the torque balance contradicts a sensor offset there")
+            chosen["verdict"] = "refused: the torque balance contradicts a sensor offset there"
             run.tried.add(finding.scored.hyp.label)
             run.refused_by_torque_balance.add(finding.scored.hyp.label)
             continue
@@ -88,10 +93,13 @@ def search_pneumatic(run: DoctorRun, say) -> None:
             if wall is not None:
                 # more air the higher the pressure: a wall that yields, not a tube's volume
                 say(f"{finding.scored.hyp.label}: a compliant wall replays the chamber better than a tube")
+                chosen["verdict"] = "refused: a compliant wall replays the chamber better than a tube"
                 run.outside_chambers.append(wall)
                 close_place(run, finding, scored)
                 continue
             finding = line_named(run, finding)
+            if finding.family != finding.scored.hyp.family:
+                chosen["verdict"] = f"named as {finding.family}"
             if wall_as_good and finding.family == "line_dynamics":
                 finding = wall_alternative(finding)
         run.findings.append(finding)
@@ -113,7 +121,13 @@ def search_receiver(run: DoctorRun, say) -> bool:
     s = receiver_candidate(run, block_samples(run.exp))
     if s is None:
         return False
-    if s.heldout_gain < PNEU_KEEP or not shared_by_chambers(s):
+    kept = s.heldout_gain >= PNEU_KEEP and shared_by_chambers(s)
+    record = pneumatic_record(run, s, -1, PNEU_KEEP, s if kept else None)  # round 0: before the rounds
+    if not kept:
+        record["verdict"] = (f"refused: held-out gain {s.heldout_gain:.3f} under {PNEU_KEEP:g}"
+                             if s.heldout_gain < PNEU_KEEP else "refused: not shared by the chambers")
+    run.pneumatic_candidates.append(record)
+    if not kept:
         say(f"a cycling receiver fits the flow errors (held-out {s.receiver.heldout_gain:.2f}) but not the replays "
             f"({s.heldout_gain:.2f})")
         return True
