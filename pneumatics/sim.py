@@ -37,16 +37,13 @@ from .effects.pressure_sensor_offset import offset_at
 from .effects.friction import friction_torque
 from .effects.heat_transfer import thermal_step
 from .effects.line_dynamics import rc_line_step, valve_into_tube
-from .effects.valve_hysteresis import play_step
-from .effects.valve_lag import lag_decay, slew_step_v
-from .effects.valve_leak import clearance_conductances, leak_areas, underlap_areas
 from . import arguments
 from .errors import ArgumentError, ConfigError, PneumasimError
 from .command_kernel import CLIPPED, OK
 from .kernel import MUJOCO_FUNCTIONS, RUNNING, fluid_step_fast, pack
 from .tube_kernel import rc_line_step_compiled
 from .robot import Robot
-from .tables import valve_areas_table
+from .valve_bank import ValveBank
 
 COMMAND_RANGE_V = (0.0, 10.0)
 #: commands further than this outside COMMAND_RANGE_V are not a saturated controller but a unit
@@ -115,25 +112,9 @@ class Simulation:
             supply_droop_tau_s=self.effects.supply_droop_tau_s,
             supply_compressor=self.effects.compressor_array(),
             dead_volume=robot.tables.dead_volume + line_volume)
-        self._lag = self.effects.chamber_array(robot, "valve_lag_s")
-        # valve_lag (slew_limit): the most the spool moves in one physics step [V] (inf: no limit)
-        self._slew_step = slew_step_v(self.effects.chamber_array(robot, "valve_slew_s"), self.model.opt.timestep)
-        self._slewing = bool(np.isfinite(self._slew_step).any())
-        # valve_lag / line_dynamics move the spool between commands: step one physics step at a time
-        self._valve_dynamics = bool(np.any(self._lag > 0) or np.any(self._line_delay > 0) or self._slewing)
-        # exact first-order decay over half a physics step (0 where the valve has no lag)
-        self._lag_decay_half = lag_decay(self._lag, 0.5 * self.model.opt.timestep)
-        self._valve_leak = self.effects.chamber_array(robot, "valve_leak_m2")
-        exhaust = self.effects.chamber_array(robot, "valve_leak_exhaust_m2")
-        given = np.array([f"{a}.{c}" in self.effects.valve_leak_exhaust_m2 for a, c in robot.chamber_names])
-        self._valve_leak_exhaust = np.where(given, exhaust, self._valve_leak)  # symmetric unless given
-        self._underlap_m2, self._underlap_v = self.effects.underlap_arrays(robot)
-        # an underlapped valve's areas are set by the numpy command path (_update_areas); the
-        # compiled command step knows the Gaussian leak alone
-        # valve_leak (clearance): the lands' laminar conductances follow the spool, set there too
-        self._clearance_g, self._clearance_v = self.effects.clearance_arrays(robot)
-        self._numpy_command = bool(self._underlap_m2.any() or self._clearance_g.any())
-        self._hysteresis = self.effects.chamber_array(robot, "valve_hysteresis_v")
+        #: the valves between the commands and the areas (valve_lag, valve_hysteresis, valve_leak, line delays)
+        self.valves = ValveBank(robot, self.effects, self.tables, self.model.opt.timestep, self._line_delay)
+        self._valve_dynamics = self.valves.dynamic
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
         self._p_drift, self._p_drift_tau = self.effects.drift_arrays(robot)
         self._drifting = bool(self._p_drift.any())  # decided once: observe() is on the control loop
@@ -160,21 +141,21 @@ class Simulation:
         self.compiled_steps = (kernel == "fast" and MUJOCO_FUNCTIONS is not None and not self._thermal_any
                                and self._tubes.size == 0)
         self.gas_temperature = np.full(robot.tables.n_chambers, robot.tables.gas.temperature_k)
-        self.spool = np.zeros(self.tables.n_chambers)  # command the spool follows (hysteresis)
-        self.spool_position = np.zeros(self.tables.n_chambers)  # the spool after lag and line delay
+        self.spool = self.valves.spool  # command the spool follows (hysteresis)
+        self.spool_position = self.valves.spool_position  # the spool after lag and line delay
         n_ch = self.tables.n_chambers
         self.pressure = np.full(n_ch, self.tables.room_pa)
         #: the lumped lines' tube pressures [Pa abs] (line_dynamics, lumped_rc; the chamber's elsewhere)
         self.tube_pressure = self.pressure.copy()
-        self.command = np.array(self.tables.valve[:, 0])  # each valve's null
-        self.areas = np.zeros((n_ch, 2))  # valve (supply, exhaust) areas [m^2] at self.command
-        #: the valves' (supply, exhaust) land clearance conductances [kg/(s Pa)] at the spool
-        #: (valve_leak, clearance form; zero without): a view of the kernel's chamber table
-        self.clearance = None
+        self.command = self.valves.command  # as clipped [V]; each valve's null at first
+        self.areas = self.valves.areas  # valve (supply, exhaust) areas [m^2] at self.command
         self._ids = robot.actuator_ids
         self._prev_length = np.zeros(self._ids.size)
         self._packed = pack(self.tables, self._ids, self.model.opt.timestep)
-        self.clearance = self._packed[1][:, 14:16]
+        self.valves.share_clearance(self._packed[1][:, 14:16])
+        #: the valves' (supply, exhaust) land clearance conductances [kg/(s Pa)] at the spool
+        #: (valve_leak, clearance form; zero without): a view of the kernel's chamber table
+        self.clearance = self.valves.clearance
         # the link joints' addresses in this simulation's model (backlash adds drive joints)
         self._qadr, self._dadr = addresses(self.model, robot.joint_names)
         self._drive = drive_pairs(self.model, robot.joint_names)  # (k, gap, qpos adr, dof adr)
@@ -211,14 +192,10 @@ class Simulation:
         self.pressure[:] = self.tables.room_pa if pressure is None else pressure
         self.tube_pressure[:] = self.pressure
         self.gas_temperature[:] = self.tables.gas.temperature_k
-        self.command[:] = self.tables.valve[:, 0]
-        self.spool[:] = self.command
-        self.spool_position[:] = self.command
-        self._spool_history = [(-np.inf, self.spool.copy())]  # (time set, spool target) for line delays
+        self.valves.reset()
         glob = self._packed[2]  # supply pressure in effect (supply_droop): nominal, or the receiver's cut-out
         glob[13] = self.tables.supply_pa if self.tables.supply_compressor is None else self.tables.supply_compressor[3]
         glob[RUNNING] = 0.0
-        self._update_areas()
         self._clip_warned = False
         self.sums[:] = 0.0
         self.steps_summed = 0
@@ -292,14 +269,7 @@ class Simulation:
                                 f"valve's {lo:g}-{hi:g} V (clipped within {COMMAND_SLIP_V:g} V of it): wrong unit?")
         if u.min() < lo or u.max() > hi:
             self.warn_clipped(u)
-        np.clip(u, lo, hi, out=self.command)
-        # valve_hysteresis: the spool follows the command through a play of +-h
-        self.spool[:] = play_step(self.spool, self.command, self._hysteresis)
-        if self._valve_dynamics:
-            self._spool_history.append((self.time, self.spool.copy()))
-            return  # the areas follow step by step (_advance_spool)
-        self.spool_position[:] = self.spool
-        self._update_areas()
+        self.valves.set(np.clip(u, lo, hi), self.time)  # with valve dynamics the areas follow step by step
 
     def warn_clipped(self, u):
         """A CommandClippedWarning for commands ``u`` outside COMMAND_RANGE_V, once per run."""
@@ -310,44 +280,6 @@ class Simulation:
         warnings.warn(f"valve commands outside {lo:g}-{hi:g} V (min {u.min():.3g}, max {u.max():.3g}) "
                       f"at t = {self.time:.3f} s are clipped; warned once per run",
                       CommandClippedWarning, stacklevel=3)
-
-    def _advance_spool(self):
-        """valve_lag and line_dynamics over the coming physics step: the spool target delayed by
-        each chamber's line delay (a transport delay of the flow, modelled on the valve side, as in
-        Richer & Hurmuzlu 2000's line model), then the exact first-order lag, evaluated at
-        mid-step, its step bounded by the slew limit."""
-        t, dt = self.time, self.dt
-        hist = self._spool_history
-        while len(hist) > 1 and hist[1][0] + self._line_delay.max() <= t - dt:
-            hist.pop(0)  # entries every chamber has passed
-        target = hist[0][1].copy()
-        for t_set, u in hist[1:]:
-            due = t_set + self._line_delay <= t + 1e-9
-            target[due] = u[due]
-        x = self.spool_position
-        if self._slewing:  # the slew limit bounds the step the lag asks for (a solenoid's force bounds the speed)
-            step = np.clip(target + (x - target) * self._lag_decay_half ** 2 - x, -self._slew_step, self._slew_step)
-            mid = x + 0.5 * step
-            x += step
-        else:
-            mid = target + (x - target) * self._lag_decay_half
-            x[:] = target + (x - target) * self._lag_decay_half ** 2
-        self._update_areas(mid)
-
-    def _update_areas(self, spool=None):
-        spool = self.spool_position if spool is None else spool
-        a_s, a_e = valve_areas_table(self.tables, spool)
-        if self._valve_leak.any() or self._valve_leak_exhaust.any():  # valve_leak: the spool does not shut near null
-            leak_s, leak_e = leak_areas(spool, self.tables.valve[:, 0], self._valve_leak, self._valve_leak_exhaust,
-                                        self.effects.valve_leak_width_v)
-            a_s, a_e = a_s + leak_s, a_e + leak_e
-        if self._numpy_command:  # valve_leak (underlap): the opening land stays open by the underlap
-            lap_s, lap_e = underlap_areas(spool, self.tables.valve[:, 0], self._underlap_m2, self._underlap_v)
-            a_s, a_e = a_s + lap_s, a_e + lap_e
-            # valve_leak (clearance): each land's laminar conductance over its covered length
-            self.clearance[:, 0], self.clearance[:, 1] = clearance_conductances(
-                spool, self.tables.valve[:, 0], self._clearance_g, self._clearance_v)
-        self.areas[:, 0], self.areas[:, 1] = a_s, a_e
 
     # -- stepping ------------------------------------------------------------------------
     def play(self, commands, steps: int):
@@ -369,7 +301,7 @@ class Simulation:
         n = arguments.step_count(n, "Simulation.step")
         if self._valve_dynamics:
             for _ in range(n):
-                self._advance_spool()
+                self.valves.advance(self.time, self.dt)
                 self._physics_steps(1)
             return
         self._physics_steps(n)
@@ -425,16 +357,14 @@ class Simulation:
         """The arguments of :func:`pneumatics.command_kernel.command_step` after the commands, for
         this simulation's state arrays (only meaningful where ``valve_dynamics_free``)."""
         lo, hi = COMMAND_RANGE_V
-        return (lo, hi, COMMAND_SLIP_V, self.command, self.spool, self.spool_position, self._hysteresis,
-                self.tables.valve, self._valve_leak, self._valve_leak_exhaust, self.effects.valve_leak_width_v,
-                self.areas)
+        return self.valves.command_step_args(lo, hi, COMMAND_SLIP_V)
 
     @property
     def valve_dynamics_free(self) -> bool:
         """Whether a command sets the valve areas at once (no valve lag or line delay moving the
         spool between commands, no underlapped or clearance-sealed valve), so that command_step is the whole of
         set_command."""
-        return not (self._valve_dynamics or self._numpy_command)
+        return not (self.valves.dynamic or self.valves.numpy_only)
 
     def sensor_maps(self) -> tuple:
         """(qpos addresses (n_joint,), qvel addresses (n_joint,), angle offsets (n_joint,) [rad],

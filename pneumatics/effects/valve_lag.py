@@ -81,7 +81,7 @@ class ValveLag(Family):
     forms = {"first_order": FirstOrder, "dead_time": DeadTime, "slew_limit": SlewLimit}
     physics = "spool x follows the command u: tau x' = u - x, or x(t) = u(t - T), or |x'| <= span / T_stroke"
     sources = "paper 002 (valve bandwidth); Franklin, Powell & Workman §4.3 (exact discretisation)"
-    simulator = "spool stepped every physics step (Simulation._advance_spool)"
+    simulator = "spool stepped every physics step (valve_bank.ValveBank.advance)"
     doctor = "pressure_replay"
     plants = ("valve_arm", "jetpipe")
 

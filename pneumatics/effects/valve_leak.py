@@ -146,7 +146,7 @@ class ValveLeak(Family):
                "underlapped spool's area curve, shifted by the underlap; or an overlapped spool's laminar "
                "clearance flow through each land, inversely as its covered length")
     sources = "Merritt 1967 §3.6 (underlapped spools) and ch. 5 (clearance flow); Sorli et al. 1999"
-    simulator = ("valve areas at each spool position (Simulation._update_areas); the clearance form's land "
+    simulator = ("valve areas at each spool position (valve_bank.ValveBank.update_areas); the clearance form's land "
                  "conductances there too, its flows with the leaks (chamber.leak_flows, kernel)")
     doctor = "pressure_replay"
 
