@@ -114,7 +114,6 @@ class Simulation:
             dead_volume=robot.tables.dead_volume + line_volume)
         #: the valves between the commands and the areas (valve_lag, valve_hysteresis, valve_leak, line delays)
         self.valves = ValveBank(robot, self.effects, self.tables, self.model.opt.timestep, self._line_delay)
-        self._valve_dynamics = self.valves.dynamic
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
         self._p_drift, self._p_drift_tau = self.effects.drift_arrays(robot)
         self._drifting = bool(self._p_drift.any())  # decided once: observe() is on the control loop
@@ -299,7 +298,7 @@ class Simulation:
         (see :meth:`take_mean`), for DAQ-style sensor averaging.  ``n`` must be a whole
         number >= 1 (:class:`~pneumatics.errors.ArgumentError` otherwise)."""
         n = arguments.step_count(n, "Simulation.step")
-        if self._valve_dynamics:
+        if self.valves.dynamic:
             for _ in range(n):
                 self.valves.advance(self.time, self.dt)
                 self._physics_steps(1)

@@ -241,7 +241,7 @@ def test_step_by_step_valve_path_equals_the_batched_kernel_when_the_valve_is_ide
     must reproduce the batched compiled loop (same physics, same order of operations)."""
     _, batched = _run(EffectSet())
     sim, stepped = _run(EffectSet(valve_lag_s={"elbow.a": 1e-12}))
-    assert sim._valve_dynamics
+    assert sim.valves.dynamic
     np.testing.assert_allclose(stepped, batched, rtol=1e-10, atol=1e-9)
 
 

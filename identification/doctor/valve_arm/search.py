@@ -71,7 +71,7 @@ def search_pneumatic(run: DoctorRun, say) -> None:
         run.pneumatic_candidates += records
         if finding is None:
             break
-        chosen = records[[i for i, s in enumerate(top) if s is finding.scored][0]]
+        chosen = next(r for r, s in zip(records, top) if s is finding.scored)
         if partial_projection(run, finding):
             # the flexible correction at its place still pays through other inputs: not
             # named; the place is reported unexplained after the search (flex_check), and no
