@@ -101,11 +101,11 @@ def test_report_md_says_why_each_chamber_effect_fitted_was_named_or_not():
     """One row per fitted pneumatic candidate, round by round, with its held-out gain and verdict."""
     from identification.doctor.valve_arm.report import pneumatic_candidate_lines
 
-    records = [{"hypothesis": "external_leak@elbow.a", "round": 1, "predicted_gain": 0.31, "heldout_gain": 0.168,
-                "verdict": "refused: held-out gain 0.168 under 0.2"},
-               {"hypothesis": "valve_leak@elbow.a", "round": 1, "predicted_gain": 0.12, "heldout_gain": 0.41,
-                "verdict": "named"}]
+    records = [{"hypothesis": "external_leak@elbow.a", "form": "orifice", "round": 1, "predicted_gain": 0.31,
+                "heldout_gain": 0.168, "verdict": "refused: held-out gain 0.168 under 0.2"},
+               {"hypothesis": "valve_leak@elbow.a", "form": "underlap", "round": 1, "predicted_gain": 0.12,
+                "heldout_gain": 0.41, "verdict": "named"}]
     lines = pneumatic_candidate_lines(records)
-    assert "| 1 | external_leak@elbow.a | 0.310 | 0.168 | refused: held-out gain 0.168 under 0.2 |" in lines
-    assert lines[-1] == "| 1 | valve_leak@elbow.a | 0.120 | 0.410 | named |"
+    assert "| 1 | external_leak@elbow.a | orifice | 0.310 | 0.168 | refused: held-out gain 0.168 under 0.2 |" in lines
+    assert lines[-1] == "| 1 | valve_leak@elbow.a | underlap | 0.120 | 0.410 | named |"
     assert pneumatic_candidate_lines([]) == []

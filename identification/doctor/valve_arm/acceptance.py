@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from identification.base.statistics import robust_ceiling
+from pneumatics.effects.from_finding import form_of
+from pneumatics.errors import ConfigError
 
 from .calibrate import SCALE_BOUND
 from .rules import FIT_WITHIN, ISOLABLE, MAX_FITS, MIN_FITS, MIN_T, PARSIMONY, DoctorRun, Finding, keeps
@@ -192,10 +194,19 @@ def pneumatic_record(run: DoctorRun, s: Scored, round_: int, keep: float, chosen
     why = refusal(s, keep)
     verdict = ("named" if s is chosen else f"refused: {why}" if why
                else f"passed, the round's best was {chosen.hyp.label}" if chosen is not None else "passed")
-    names = run.robot.chamber_names
-    return {"hypothesis": s.hyp.label, "round": round_ + 1,
+    names, params = run.robot.chamber_names, finding_params(s)
+    return {"hypothesis": s.hyp.label, "form": _form(s.hyp.family, params), "round": round_ + 1,
             "chambers": [f"{names[c][0]}.{names[c][1]}" for c in s.hyp.chambers],
             "predicted_gain": float(s.predicted_gain), "heldout_gain": float(s.heldout_gain),
             "rank_gain": None if s.rank_gain is None else float(s.rank_gain),
             "own_gain": None if s.own_gain is None else float(s.own_gain),
-            "judged_by": s.judged_by, "params": finding_params(s), "verdict": verdict}
+            "judged_by": s.judged_by, "params": params, "verdict": verdict}
+
+
+def _form(family: str, params: dict) -> str:
+    """The effect form a candidate's fitted parameters make (one label holds several forms of a
+    family at one place); "" where they make none of the library's (a search-only hypothesis)."""
+    try:
+        return form_of(family, params)
+    except ConfigError:
+        return ""

@@ -275,10 +275,11 @@ def pneumatic_candidate_lines(records: list) -> list[str]:
              f"Each round fits the hypotheses the score test (or a chamber's held-out replay) points at; one is "
              f"named when it removes {PNEU_KEEP:g} of its chambers' held-out mean square and its parameters pass "
              "the keep rule. Round 0 is the compressor's receiver, tried before the rounds.", "",
-             "| round | hypothesis | predicted gain | held-out gain | verdict |", "| --- | --- | --- | --- | --- |"]
+             "| round | hypothesis | form | predicted gain | held-out gain | verdict |",
+             "| --- | --- | --- | --- | --- | --- |"]
     for r in records:
-        lines.append(f"| {r['round']} | {r['hypothesis']} | {r['predicted_gain']:.3f} | {r['heldout_gain']:.3f} "
-                     f"| {r['verdict']} |")
+        lines.append(f"| {r['round']} | {r['hypothesis']} | {r.get('form', '')} | {r['predicted_gain']:.3f} "
+                     f"| {r['heldout_gain']:.3f} | {r['verdict']} |")
     return lines
 
 
