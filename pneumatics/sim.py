@@ -112,8 +112,6 @@ class Simulation:
             supply_droop_tau_s=self.effects.supply_droop_tau_s,
             supply_compressor=self.effects.compressor_array(),
             dead_volume=robot.tables.dead_volume + line_volume)
-        #: the valves between the commands and the areas (valve_lag, valve_hysteresis, valve_leak, line delays)
-        self.valves = ValveBank(robot, self.effects, self.tables, self.model.opt.timestep, self._line_delay)
         self._p_offset = self.effects.chamber_array(robot, "pressure_offset_pa")
         self._p_drift, self._p_drift_tau = self.effects.drift_arrays(robot)
         self._drifting = bool(self._p_drift.any())  # decided once: observe() is on the control loop
@@ -140,6 +138,12 @@ class Simulation:
         self.compiled_steps = (kernel == "fast" and MUJOCO_FUNCTIONS is not None and not self._thermal_any
                                and self._tubes.size == 0)
         self.gas_temperature = np.full(robot.tables.n_chambers, robot.tables.gas.temperature_k)
+        self._ids = robot.actuator_ids
+        self._packed = pack(self.tables, self._ids, self.model.opt.timestep)
+        #: the valves between the commands and the areas (valve_lag, valve_hysteresis, valve_leak,
+        #: line delays); the clearance conductances go to the kernel's chamber table
+        self.valves = ValveBank(robot, self.effects, self.tables, self.model.opt.timestep, self._line_delay,
+                                self._packed[1][:, 14:16])
         self.spool = self.valves.spool  # command the spool follows (hysteresis)
         self.spool_position = self.valves.spool_position  # the spool after lag and line delay
         n_ch = self.tables.n_chambers
@@ -148,10 +152,7 @@ class Simulation:
         self.tube_pressure = self.pressure.copy()
         self.command = self.valves.command  # as clipped [V]; each valve's null at first
         self.areas = self.valves.areas  # valve (supply, exhaust) areas [m^2] at self.command
-        self._ids = robot.actuator_ids
         self._prev_length = np.zeros(self._ids.size)
-        self._packed = pack(self.tables, self._ids, self.model.opt.timestep)
-        self.valves.share_clearance(self._packed[1][:, 14:16])
         #: the valves' (supply, exhaust) land clearance conductances [kg/(s Pa)] at the spool
         #: (valve_leak, clearance form; zero without): a view of the kernel's chamber table
         self.clearance = self.valves.clearance

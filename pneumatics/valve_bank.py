@@ -28,16 +28,16 @@ class ValveBank:
       tables: the simulation's tables (valve curves and nulls).
       timestep_s: the physics step [s].
       line_delay_s: (n_ch,) each chamber's line transport delay [s] (0: none).
+      clearance: (n_ch, 2) where the lands' laminar conductances [kg/(s Pa)] are written: a
+        view of the compiled kernel's chamber table, which reads them there.
 
     State (n_ch,) arrays, each one object for the bank's life (compiled steps hold views):
     ``command`` [V] as clipped, ``spool`` the command after the play, ``spool_position`` the
     spool after lag and delay; ``areas`` (n_ch, 2) the (supply, exhaust) areas [m^2].
-    ``clearance`` (n_ch, 2), the lands' laminar conductances [kg/(s Pa)], is a view the
-    simulation hands over (:meth:`share_clearance`: it lives in the compiled kernel's table).
     """
 
     def __init__(self, robot: Robot, effects: EffectSet, tables: FluidTables, timestep_s: float,
-                 line_delay_s: np.ndarray):
+                 line_delay_s: np.ndarray, clearance: np.ndarray):
         self.tables, self.effects = tables, effects
         self.line_delay = line_delay_s
         self.lag = effects.chamber_array(robot, "valve_lag_s")
@@ -65,13 +65,8 @@ class ValveBank:
         self.spool = np.zeros(n_ch)
         self.spool_position = np.zeros(n_ch)
         self.areas = np.zeros((n_ch, 2))
-        self.clearance = np.zeros((n_ch, 2))
+        self.clearance = clearance
         self.history = [(-np.inf, self.spool.copy())]  # (time set, spool target) for line delays
-
-    def share_clearance(self, view: np.ndarray) -> None:
-        """Write the clearance conductances into ``view`` (n_ch, 2) from now on (the kernel's table)."""
-        view[:] = self.clearance
-        self.clearance = view
 
     def reset(self) -> None:
         """Every command, spool and position at its valve's null; the areas there."""
