@@ -119,6 +119,31 @@ def test_a_pressure_sensor_offset_is_named_by_the_force_it_fakes_and_taken_out_o
         assert getattr(run.mods, scale) == pytest.approx(getattr(without, scale), rel=0.01)
 
 
+def test_an_offset_withdrawn_at_a_chamber_its_sensors_could_not_rule_out_moves_to_the_other():
+    """On this draw the pressure replays cannot tell elbow.a from elbow.b: the offset is named
+    at a (its true chamber) with b an alternative place, b's own fit kept beside it.  Withdrawn
+    (as the coupled replay withdraws one that leaves its chamber's pressure worse), it moves to
+    b -- b's offset in the readings, a's out -- and withdrawn there it is gone."""
+    from identification.doctor.valve_arm.final_fit import withdraw_worsening
+    from identification.doctor.valve_arm.output_error import search_output_error
+    from pneumatics.effects.effect_set import EffectSet
+
+    run = _held_nominal_run(EffectSet(pressure_offset_pa={"elbow.a": 6000.0}), seed=35, pneumatic_search=False)
+    search_output_error(run, lambda m: None)
+    (f,) = [f for f in run.findings if f.output_error]
+    a, b = (run.robot.chamber_names.index(("elbow", ch)) for ch in "ab")
+    assert f.where == {"actuator": "elbow", "chamber": "a"} and f.other_place is not None
+    moved = f.other_place
+    assert moved.where == {"actuator": "elbow", "chamber": "b"}
+    assert moved.params["offset_pa"]["value"] < 0          # the same force error carried by b
+    withdraw_worsening(run, f, why="withdrawn by the test")
+    assert run.findings == [moved] and "tried at chamber b" in run.withdrawn[-1]["why"]
+    assert run.mods.sensor_offset_pa[a] == 0.0
+    assert run.mods.sensor_offset_pa[b] == pytest.approx(moved.params["offset_pa"]["value"])
+    withdraw_worsening(run, moved, why="withdrawn by the test")
+    assert run.findings == [] and run.mods.sensor_offset_pa[b] == 0.0
+
+
 # whole doctor searches of ~5-10 s each: slow for CI's 15 minutes; the named friction above
 # keeps the search in the default run
 @pytest.mark.slow

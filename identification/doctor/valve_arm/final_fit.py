@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .angle_replay import HORIZON_S, angle_judgements, refused, without_chamber_terms
+from .angle_replay import HORIZON_S, angle_judgements, refused, with_chamber_terms, without_chamber_terms
 from .calibrate import chamber_names as calibration_names
 from .calibrate import fit_chambers
 from .data import with_true_lengths
@@ -114,20 +114,31 @@ def withdraw_worsening(run: DoctorRun, f, why: str | None = None) -> None:
     torque balance up without it; the final joint fit is then run again.  A finding in a richer
     form of its family (an angle offset with its sensor's gain) falls back to the family's first
     form instead, which the next replay judges in turn: the torque balance alone chose the
-    richer form."""
+    richer form.  Likewise a pressure-sensor offset fitted by output error whose other chamber
+    stayed an alternative place moves there (``f.other_place``): the pressure replays could not
+    tell the chambers apart, and the coupled replay, which reads each chamber's own pressure
+    through its sensor, judges the other in turn."""
     why = why or (f"makes the held-out coupled replay worse: NRMSE of {f.nrmse['channel']} "
                   f"{f.nrmse['before']:.3g} before, {f.nrmse['after']:.3g} after")
     if _may_fall_back(run, f.scored.hyp):
         _fall_back(run, f.scored.hyp, why)
         drop_torque_terms(run, [])
         return
+    moved = f.other_place if f.output_error and f.family == "pressure_sensor_offset" else None
+    if moved is not None:
+        why += f"; the offset tried at chamber {moved.where['chamber']} instead"
     run.withdrawn.append({"effect": f.family, "where": f.where, "final_parameters": dict(f.params), "why": why})
     run.findings.remove(f)
     if f.output_error and f.family == "pressure_sensor_offset":
-        # its offset leaves the chamber model, and the chambers are calibrated again without it:
-        # output_error.take_offset calibrated them beside it
-        run.mods, run.cfit = fit_chambers(run.exp, run.win, without_chamber_terms(run.mods, f.replay_terms), run.sigma)
+        # its offset leaves the chamber model (the other chamber's goes in, if its sensors could
+        # not rule that one out), and the chambers are calibrated again: output_error.take_offset
+        # calibrated them beside it
+        pmods = with_chamber_terms(without_chamber_terms(run.mods, f.replay_terms), moved.replay_terms if moved else [])
+        run.mods, run.cfit = fit_chambers(run.exp, run.win, pmods, run.sigma)
         run.td, run.td_h = corrected_torque_data(run, run.mods)
+        if moved is not None:
+            run.rfit = fit_rigid_body(run.td)
+            run.findings.append(moved)
     drop_torque_terms(run, [f.scored.hyp])
 
 

@@ -100,11 +100,15 @@ def search_output_error(run: DoctorRun, say) -> None:
         if best is None:
             return
         where, places = best.scored.hyp.where, []
+        other = None
         if best.scored.hyp.family == "pressure_sensor_offset":
-            best, where, places = placed_offset(run, best, every)
-            if not np.isfinite(best.after):
-                judge_heldout(run, best, mm, base_h)
+            best, where, places, other = placed_offset(run, best, every)
+            for f in (best, other):
+                if f is not None and not np.isfinite(f.after):
+                    judge_heldout(run, f, mm, base_h)
         finding = named(run, best, where, places)
+        if other is not None and not refusal(other):
+            finding.other_place = named(run, other, {**where, "chamber": other.scored.hyp.where["chamber"]}, places)
         say(f"{finding.family} at {finding.where}: its joint's held-out angle NRMSE "
             f"{best.before:.4g} -> {best.after:.4g} (output error)")
         run.findings.append(finding)
@@ -151,11 +155,14 @@ def _or_none(x: float) -> float | None:
 
 
 def placed_offset(run: DoctorRun, best: OutputErrorFit, fits: list) -> tuple:
-    """(the fit of the chamber named, the finding's place, its alternative places) of a
-    cylinder's force error ``best`` that a pressure-sensor offset explains: its chambers'
-    output-error fits (``fits``) handed to sensor_offsets.offset_chamber_choice, which the
-    pressure replays and the chamber calibration decide (offset_place's rules).  No chamber:
-    the place is the actuator, the offset carried on chamber a."""
+    """(the fit of the chamber named, the finding's place, its alternative places, the other
+    chamber's fit or None) of a cylinder's force error ``best`` that a pressure-sensor offset
+    explains: its chambers' output-error fits (``fits``) handed to
+    sensor_offsets.offset_chamber_choice, which the pressure replays and the chamber
+    calibration decide (offset_place's rules).  No chamber: the place is the actuator, the
+    offset carried on chamber a.  The other chamber's fit is returned where a chamber was named
+    but the other stays an alternative place: the coupled replay, which reads each chamber's
+    own pressure, tries it if it withdraws the first (Finding.other_place)."""
     act = best.scored.hyp.where["actuator"]
     pair = {f.scored.hyp.where["chamber"]: f for f in fits if f.scored.hyp.family == "pressure_sensor_offset"
             and f.scored.hyp.where["actuator"] == act}
@@ -164,7 +171,8 @@ def placed_offset(run: DoctorRun, best: OutputErrorFit, fits: list) -> tuple:
     chosen = pair.get(chamber or "a", best)
     where = {"actuator": act} if chamber is None else {"actuator": act, "chamber": chamber}
     places = [{"actuator": act, "chamber": ch} for ch in sorted(pair)] if chamber is None or alternatives else []
-    return chosen, where, places
+    other = next((f for ch, f in pair.items() if ch != chamber), None) if chamber and alternatives else None
+    return chosen, where, places, other
 
 
 def take_offset(run: DoctorRun, finding: Finding) -> None:

@@ -73,6 +73,10 @@ class Finding:
     #: (MechMods attribute, joint, value) the replays add for a finding fitted by output error
     #: (output_error.py), whose term is not in the torque balance
     replay_terms: list = field(default_factory=list)
+    #: the same effect fitted at the other of its alternative_places (a pressure-sensor offset
+    #: fitted by output error, whose two chambers' sensors explain the cylinder's force alike):
+    #: the finding tried there when the coupled replay withdraws this one (final_fit.withdraw_worsening)
+    other_place: Finding | None = None
 
     @property
     def output_error(self) -> bool:
