@@ -211,16 +211,28 @@ def effect_against_limit(effect: dict, diagnostics: dict) -> dict:
 def below_limit_metrics(rows: list[dict]) -> dict:
     """How many effect cases the doctor could not have named on its own statement: silent cases
     every effect of which lies under the detection limit the doctor stated at its place, and
-    effects with a stated limit that were under it.  An explanation beside the strict metrics,
-    not a correction of them."""
+    effects with a stated limit that were under it; and whether the limits predict what it
+    names: of the effects over their stated limit and of those under it, how many a finding
+    names at their place (its family at its exact place, in any position).  An explanation
+    beside the strict metrics, not a correction of them."""
     cases = [r for r in rows if r["effects"]]
-    stated = [d for r in cases for d in r.get("detection", []) if d["limit"] is not None]
+    stated = [(d, finding_at(e, r["findings"])) for r in cases
+              for e, d in zip(r["effects"], r.get("detection", [])) if d["limit"] is not None]
     silent = [r for r in cases if not r["findings"] and not r["unexplained"]]
     under = [r for r in silent if r.get("detection") and all(d["limit"] is not None and d["size"] < d["limit"]
                                                             for d in r["detection"])]
+    over = [named for d, named in stated if d["size"] >= d["limit"]]
+    below = [named for d, named in stated if d["size"] < d["limit"]]
     return {"effects_with_stated_detection_limit": len(stated),
-            "effects_under_stated_detection_limit": sum(d["size"] < d["limit"] for d in stated),
+            "effects_under_stated_detection_limit": len(below),
+            "effects_under_stated_detection_limit_named_at_place": sum(below),
+            "effects_over_stated_detection_limit_named_at_place": sum(over),
             "silent_cases_under_stated_detection_limit": len(under), "silent_cases": len(silent)}
+
+
+def finding_at(effect: dict, findings: list[dict]) -> bool:
+    """Whether one of ``findings`` names ``effect``'s family at its exact place."""
+    return any(f["effect"] == effect["family"] and f["where"] == effect["where"] for f in findings)
 
 
 def _finding(f: dict) -> dict:

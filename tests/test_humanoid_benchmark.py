@@ -234,11 +234,19 @@ def test_a_silent_case_is_counted_under_the_detection_limit_only_where_the_docto
         return {"effects": [effect], "findings": list(findings), "unexplained": [],
                 "detection": [effect_against_limit(effect, diagnostics)]}
 
-    rows = [row(coulomb), row(viscous), row(leak), row(small_leak), row(offset, [{"effect": "pressure_sensor_offset"}]),
+    named_at_b = {"effect": "pressure_sensor_offset", "where": {"actuator": "left_elbow", "chamber": "b"}}
+    named_at_a = {"effect": "pressure_sensor_offset", "where": {"actuator": "left_elbow", "chamber": "a"}}
+    rows = [row(coulomb), row(viscous), row(leak), row(small_leak), row(offset, [named_at_b]),
             {"effects": [], "findings": [], "unexplained": [], "detection": []}]
     m = below_limit_metrics(rows)
+    # over their limits: the viscous friction (silent) and the offset (named at its chamber)
     assert m == {"effects_with_stated_detection_limit": 4, "effects_under_stated_detection_limit": 2,
+                 "effects_under_stated_detection_limit_named_at_place": 0,
+                 "effects_over_stated_detection_limit_named_at_place": 1,
                  "silent_cases_under_stated_detection_limit": 2, "silent_cases": 4}
+    # named at the other chamber, the offset is not named at its place
+    rows[4] = row(offset, [named_at_a])
+    assert below_limit_metrics(rows)["effects_over_stated_detection_limit_named_at_place"] == 0
 
 
 def test_a_fresh_humanoid_run_draws_its_base_and_a_resumed_one_keeps_it(tmp_path, monkeypatch):
