@@ -53,6 +53,34 @@ def test_the_nominal_model_replays_a_noise_free_recording_of_itself(arm2):
         assert angle_nrmse(exp, pred, j) < 0.05, name
 
 
+def test_the_1ms_pressures_follow_a_limit_cycle_between_the_samples_and_stop_at_a_join(arm2):
+    """A 12 Hz pressure oscillation (humanoid38's limit cycle) sampled at 100 Hz: the pressures
+    the replays are driven with pass through the samples and follow it between them within 0.2 %
+    of its amplitude, where straight lines between the samples miss it by 5 %; pooled with
+    another recording, each keeps its own interpolation (no spline across the join)."""
+    import dataclasses
+
+    from identification.doctor.valve_arm.data import fine_pressures, pool
+
+    nominal = PneumaticMods.nominal(arm2.tables.n_chambers)
+    wave = lambda t: 3e5 + 5e4 * np.sin(2 * np.pi * 12.0 * t + np.arange(arm2.tables.n_chambers))
+    exps = []
+    for seconds, seed in ((3.0, 1), (2.0, 2)):
+        exp = prepare(arm2, _recording(arm2, seconds=seconds, seed=seed))
+        exps.append(dataclasses.replace(exp, p_at_t=wave(exp.t[:, None])))
+    exp = exps[0]
+    fine = fine_pressures(exp, nominal)
+    inside = slice(50, -50)     # the ends' not-a-knot conditions aside
+    assert np.max(np.abs(fine[inside] - wave(exp.fine_t[:, None])[inside])) < 0.002 * 5e4
+    at_samples = np.round((exp.t - exp.fine_t[0]) / 1e-3).astype(int)
+    np.testing.assert_allclose(fine[at_samples], exp.p_at_t, atol=1e-6)
+    straight = np.interp(exp.fine_t, exp.t, exp.p_at_t[:, 0])
+    assert np.max(np.abs(straight[inside] - wave(exp.fine_t[:, None])[inside, 0])) > 0.05 * 5e4
+    pooled = fine_pressures(pool(exps), nominal)
+    np.testing.assert_allclose(pooled[:fine.shape[0]], fine, atol=1e-6)
+    np.testing.assert_allclose(pooled[-len(exps[1].fine_t):], fine_pressures(exps[1], nominal), atol=1e-6)
+
+
 def test_a_true_friction_brings_the_replay_closer_and_a_false_one_moves_it_away(arm2, elbow_damping):
     b = 2.0 * elbow_damping          # the elbow's damping tripled
     nominal = PneumaticMods.nominal(arm2.tables.n_chambers)
