@@ -63,7 +63,10 @@ def test_the_1ms_pressures_follow_a_limit_cycle_between_the_samples_and_stop_at_
     from identification.doctor.valve_arm.data import fine_pressures, pool
 
     nominal = PneumaticMods.nominal(arm2.tables.n_chambers)
-    wave = lambda t: 3e5 + 5e4 * np.sin(2 * np.pi * 12.0 * t + np.arange(arm2.tables.n_chambers))
+
+    def wave(t):
+        return 3e5 + 5e4 * np.sin(2 * np.pi * 12.0 * t + np.arange(arm2.tables.n_chambers))
+
     exps = []
     for seconds, seed in ((3.0, 1), (2.0, 2)):
         exp = prepare(arm2, _recording(arm2, seconds=seconds, seed=seed))

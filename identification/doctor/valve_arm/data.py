@@ -109,12 +109,17 @@ def fine_pressures(exp: Experiment, mods, chambers=None) -> np.ndarray:
     squared NRMSE 0.30 against 0.38 (0.05 from the simulator's true state and pressures)."""
     cs = np.arange(exp.p_at_t.shape[1]) if chambers is None else np.asarray(chambers, int)
     p_t = exp.p_at_t[:, cs]
-    p = np.column_stack([np.interp(exp.fine_t, exp.t, p_t[:, k]) for k in range(cs.size)])
+    p = np.empty((exp.fine_t.size, cs.size))
+    joins = np.ones(exp.fine_t.size, bool)
     bounds = (0, *exp.breaks, exp.t.size)
     for a, b in zip(bounds[:-1], bounds[1:]):
-        if b - a >= 4:
-            f0, f1 = (int(round((exp.t[i] - exp.fine_t[0]) / FINE_DT)) for i in (a, b - 1))
-            p[f0:f1 + 1] = CubicSpline(exp.t[a:b], p_t[a:b])(exp.fine_t[f0:f1 + 1])
+        f0, f1 = (int(round((exp.t[i] - exp.fine_t[0]) / FINE_DT)) for i in (a, b - 1))
+        rows = slice(f0, f1 + 1)
+        p[rows] = (CubicSpline(exp.t[a:b], p_t[a:b])(exp.fine_t[rows]) if b - a >= 4 else
+                   np.column_stack([np.interp(exp.fine_t[rows], exp.t[a:b], p_t[a:b, k]) for k in range(cs.size)]))
+        joins[rows] = False
+    if joins.any():
+        p[joins] = np.column_stack([np.interp(exp.fine_t[joins], exp.t, p_t[:, k]) for k in range(cs.size)])
     offset = mods.sensor_offsets(exp.clock_at(fine=True))
     return p if offset is None else p - offset[..., cs]
 

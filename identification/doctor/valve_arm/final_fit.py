@@ -124,12 +124,13 @@ def withdraw_worsening(run: DoctorRun, f, why: str | None = None) -> None:
         _fall_back(run, f.scored.hyp, why)
         drop_torque_terms(run, [])
         return
-    moved = f.other_place if f.output_error and f.family == "pressure_sensor_offset" else None
+    replayed_offset = f.output_error and f.family == "pressure_sensor_offset"
+    moved = f.other_place if replayed_offset else None
     if moved is not None:
         why += f"; the offset tried at chamber {moved.where['chamber']} instead"
     run.withdrawn.append({"effect": f.family, "where": f.where, "final_parameters": dict(f.params), "why": why})
     run.findings.remove(f)
-    if f.output_error and f.family == "pressure_sensor_offset":
+    if replayed_offset:
         # its offset leaves the chamber model (the other chamber's goes in, if its sensors could
         # not rule that one out), and the chambers are calibrated again: output_error.take_offset
         # calibrated them beside it
