@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .angle_replay import HORIZON_S, angle_judgements, refused, with_chamber_terms, without_chamber_terms
+from .angle_replay import HORIZON_S, angle_judgements, refused, without_chamber_terms
 from .calibrate import chamber_names as calibration_names
 from .calibrate import fit_chambers
 from .data import with_true_lengths
 from .hypotheses import mechanical_hypotheses
 from .mechanics import calibrate_rigid_body, fit_rigid_body
+from .output_error import take_offset
 from .rules import MIN_T, DoctorRun, keeps
 from .screening import stack_terms
 from .search import corrected_torque_data, mech_attr
@@ -130,16 +131,15 @@ def withdraw_worsening(run: DoctorRun, f, why: str | None = None) -> None:
         why += f"; the offset tried at chamber {moved.where['chamber']} instead"
     run.withdrawn.append({"effect": f.family, "where": f.where, "final_parameters": dict(f.params), "why": why})
     run.findings.remove(f)
-    if replayed_offset:
-        # its offset leaves the chamber model (the other chamber's goes in, if its sensors could
-        # not rule that one out), and the chambers are calibrated again: output_error.take_offset
-        # calibrated them beside it
-        pmods = with_chamber_terms(without_chamber_terms(run.mods, f.replay_terms), moved.replay_terms if moved else [])
-        run.mods, run.cfit = fit_chambers(run.exp, run.win, pmods, run.sigma)
+    if moved is not None:  # its offset out, the other chamber's in, calibrated beside it as when named
+        run.mods = without_chamber_terms(run.mods, f.replay_terms)
+        take_offset(run, moved)
+        run.findings.append(moved)
+    elif replayed_offset:
+        # its offset leaves the chamber model, and the chambers are calibrated again without it:
+        # output_error.take_offset calibrated them beside it
+        run.mods, run.cfit = fit_chambers(run.exp, run.win, without_chamber_terms(run.mods, f.replay_terms), run.sigma)
         run.td, run.td_h = corrected_torque_data(run, run.mods)
-        if moved is not None:
-            run.rfit = fit_rigid_body(run.td)
-            run.findings.append(moved)
     drop_torque_terms(run, [f.scored.hyp])
 
 
