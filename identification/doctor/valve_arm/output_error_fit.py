@@ -8,8 +8,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import angle_replay
 from .angle_replay import CHAMBER_TERM, HORIZON_S, pressure_driven_angles, with_chamber_terms, with_replay_terms
-from .mass_nuisance import mass_sensitivity, partialled
+from .mass_nuisance import body_sensitivities, partialled
 from .replay import MechMods, window_starts
 from .rules import MIN_T, DoctorRun, passes_keep_rule
 from .screening import Scored
@@ -38,8 +39,9 @@ OUTPUT_ERROR_MIN_T = 8.0
 #: their joint's training angle error (the jaw's, 0.11-0.18) or replayed its held-out angle
 #: worse (right_hip_roll, 98 errors, ratio 1.03)
 OFFSET_MIN_T = MIN_T
-#: the families fitted beside the mass of their joint's subtree (mass_nuisance): a constant
-#: force, which a held-nominal body's mass error fakes where the joint's gravity torque varies little
+#: the families fitted beside the masses of their joint's subtree bodies (mass_nuisance): a
+#: constant force, which a held-nominal body's mass errors fake where the joint's gravity torque
+#: varies little
 MASS_NUISANCE = ("pressure_sensor_offset",)
 
 
@@ -76,9 +78,10 @@ def replayed(exp, run: DoctorRun, mm: MechMods, terms, every: int = 1) -> np.nda
 
 
 def window_rows(exp, every: int) -> np.ndarray:
-    """(W, H) the rows each replayed window of pressure_driven_angles(..., every) fills."""
+    """(W, H - BURN_IN_ROWS) the rows each replayed window of pressure_driven_angles(..., every)
+    fills (after its burn-in)."""
     starts, H = window_starts(exp, HORIZON_S)
-    rows = starts[::every, None] + 1 + np.arange(H)[None]
+    rows = starts[::every, None] + 1 + np.arange(min(angle_replay.BURN_IN_ROWS, H - 1), H)[None]
     return rows[np.all(rows < len(exp.t), axis=1)]
 
 
@@ -86,8 +89,8 @@ def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
                         base_q: np.ndarray) -> OutputErrorFit | None:
     """Candidate ``s`` (a Scored hypothesis) fitted on its joint's training angle: the
     replay's change for each parameter's probe ``step`` (k,), one Gauss-Newton step from zero
-    (``base_q``: the training replay of ``base_mm``, every TRAIN_EVERY-th window), beside its
-    joint's subtree mass for a family of MASS_NUISANCE.  None when the replays do not move the
+    (``base_q``: the training replay of ``base_mm``, every TRAIN_EVERY-th window), beside the
+    mass of each body of its joint's subtree for a family of MASS_NUISANCE.  None when the replays do not move the
     angle in k directions."""
     h, exp = s.hyp, run.exp
     rows = window_rows(exp, TRAIN_EVERY)
@@ -102,8 +105,8 @@ def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
     ok = np.all(np.isfinite(A), axis=(1, 2)) & np.all(np.isfinite(r), axis=1)
     nuisance = None
     if h.family in MASS_NUISANCE:
-        nuisance = mass_sensitivity(exp, run, base_mm, base_q[rows], [h.joint], TRAIN_EVERY, rows)[:, :, h.joint]
-        ok &= np.all(np.isfinite(nuisance), axis=1)
+        nuisance = body_sensitivities(exp, run, base_mm, base_q[rows], h.joint, TRAIN_EVERY, rows)
+        ok &= np.all(np.isfinite(nuisance), axis=(1, 2))
     A, r = A[ok], r[ok]
     if nuisance is not None:
         A, r = partialled(A, nuisance[ok], r)
