@@ -165,7 +165,7 @@ def test_where_the_body_was_held_nominal_a_tie_does_not_keep_a_finding():
 def test_the_burn_in_recovers_a_restart_velocity_error(arm2):
     """Each window's restart velocity is corrected by the slope of its first rows' error
     (angle_replay.restart_velocity_error): replays started 0.3 rad/s off, read against replays
-    started right, give back the 0.3 rad/s within 10 %."""
+    started right, give back the 0.3 rad/s within 10 %, and a second pass most of the rest."""
     from identification.doctor.valve_arm import angle_replay
     from identification.doctor.valve_arm.data import fine_pressures
     from identification.doctor.valve_arm.replay import replay_model, start_state, window_starts
@@ -181,4 +181,9 @@ def test_the_burn_in_recovers_a_restart_velocity_error(arm2):
     off = angle_replay.read_angles(exp, model, mm, nominal, forces, starts, q0, qd0 + 0.3, K, offset, scale)
     found = angle_replay.restart_velocity_error(off - right, exp)
     np.testing.assert_allclose(np.median(found, axis=0), 0.3, rtol=0.1)
+    # a second pass (BURN_IN_PASSES) from the corrected velocity takes most of what is left
+    # (measured: 5 % of it stays)
+    again = angle_replay.read_angles(exp, model, mm, nominal, forces, starts, q0, qd0 + 0.3 - found, K, offset, scale)
+    left = 0.3 - found - angle_replay.restart_velocity_error(again - right, exp)
+    assert np.sqrt(np.mean(left ** 2)) < 0.3 * np.sqrt(np.mean((0.3 - found) ** 2))
 
