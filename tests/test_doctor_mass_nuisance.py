@@ -128,3 +128,18 @@ def test_the_bodies_sensitivities_add_up_to_the_subtrees():
     assert each.shape == (*rows.shape, len(subtree_bodies(robot.model, robot.joint_names[j])))
     # measured 2.0 %: the 3 % probes answer nearly, not exactly, linearly
     assert np.linalg.norm(each.sum(axis=-1) - whole) < 0.05 * np.linalg.norm(whole)
+
+
+def test_a_large_subtree_is_grouped_with_its_first_bodies_alone():
+    """humanoid38's waist_yaw moves 25 bodies: the candidate's nuisances are its first three
+    bodies down the tree alone and the rest as one (mass_nuisance.body_groups); an ankle's three
+    bodies stay apart."""
+    from identification.doctor.valve_arm.mass_nuisance import MAX_BODY_GROUPS, body_groups
+    from pneumatics.robot import load_robot
+
+    m = load_robot("humanoid38").model
+    waist = body_groups(m, "waist_yaw")
+    assert len(waist) == MAX_BODY_GROUPS and all(len(g) == 1 for g in waist[:-1])
+    assert sum(waist, []) == subtree_bodies(m, "waist_yaw") and len(waist[-1]) > 10
+    assert waist[0] == [m.body(int(m.joint("waist_yaw").bodyid[0])).name]
+    assert body_groups(m, "left_ankle_pitch") == [[b] for b in subtree_bodies(m, "left_ankle_pitch")]

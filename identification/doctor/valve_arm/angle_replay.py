@@ -33,10 +33,9 @@ humanoid38's limit cycle; that error, not the effects, dominated the replays' mi
 BURN_IN_ROWS rows, whose error's slope gives the restart velocity's error
 (:func:`restart_velocity_error`; BURN_IN_PASSES times, each from the last correction), then
 whole from the corrected velocity, judged only after those rows, where an effect has had time
-to act.  On a development recording of humanoid38
-(seed 7100, nominal body, +-3 % errors) the 38 joints' summed squared NRMSE fell 0.34 -> 0.13
-and a 0.03 N m Coulomb friction's replayed change against the mismatch rose 0.43 -> 0.58 (medians
-over the joints).
+to act.  On a development recording of humanoid38 (seed 7100, nominal body, +-3 % errors) the
+38 joints' summed squared NRMSE fell 0.34 -> 0.10 and a 0.03 N m Coulomb friction's replayed
+change against the mismatch rose 0.43 -> 0.68 (medians over the joints).
 """
 from __future__ import annotations
 

@@ -11,9 +11,9 @@ of gravity torque, what a 1.7 kPa offset on its 0.59 cm^3/rad vane gives.  Fitte
 subtree's mass scale, the right knee's offset of seed 519139745 fell from 7.6 to 1.7 standard
 errors (the mass scale took -4.3 %), the jaw's of the null 519139759 from 6.9 to 2.8 (+3.9 %);
 the true 6.2 kPa offset at the right knee of 519139761 stood at 8.2.  The screen fits the
-subtree's one scale (a replay per level of the tree); a candidate's own fit fits each body's
-mass (:func:`body_sensitivities`: a replay per body), which the screen's one scale cannot stand
-for where the bodies' errors differ.
+subtree's one scale (a replay per level of the tree); a candidate's own fit fits the masses of
+the subtree's first bodies one by one (:func:`body_sensitivities`, :func:`body_groups`), which
+the screen's one scale cannot stand for where the bodies' errors differ.
 
 The offset is fitted beside the nuisance by partialling it out (Frisch & Waugh, Econometrica
 1(4), 1933; Lovell, JASA 58(304), 1963): the offset's sensitivity and the residual are each
@@ -71,9 +71,26 @@ def mass_sensitivity(exp, run, mm: MechMods, base_q: np.ndarray, joints, every: 
     return out
 
 
+#: at most this many mass nuisances beside a candidate offset: the joint's body and the next
+#: ones below it on their own, the rest of its subtree as one.  Each is a replay per candidate
+#: and round; one per body cost a fresh case (817822052, 2026-12-07) 862 s, eight arm and waist
+#: joints screened for offsets, `waist_yaw`'s subtree of 25 bodies among them
+MAX_BODY_GROUPS = 4
+
+
+def body_groups(model, joint: str, most: int = MAX_BODY_GROUPS) -> list[list[str]]:
+    """The bodies with mass of ``joint``'s subtree in at most ``most`` groups: the first
+    ``most`` - 1 in the model's tree order (the joint's own body, then down its first branch)
+    each alone, the rest together; each body alone when they are no more than ``most``."""
+    bodies = subtree_bodies(model, joint)
+    if len(bodies) <= most:
+        return [[b] for b in bodies]
+    return [[b] for b in bodies[:most - 1]] + [bodies[most - 1:]]
+
+
 def body_sensitivities(exp, run, mm: MechMods, base_q: np.ndarray, joint: int, every: int, rows) -> np.ndarray:
-    """(W, H, m) d q_j / d (mass scale of each body of joint j's subtree, m of them) at the
-    windows ``rows`` of pressure_driven_angles(..., every): one replay per body.  Each body's
+    """(W, H, m) d q_j / d (mass scale of each of joint j's :func:`body_groups`, m of them) at
+    the windows ``rows`` of pressure_driven_angles(..., every): one replay per group.  Each body's
     mass is off on its own (+-3 % on humanoid38's cases, as a real robot's links are weighed
     one by one), and one scale for the whole subtree leaves what their different lever arms
     give: a false 0.55 kPa offset at the left ankle pitch of development seed 7101 stood 8.6
@@ -81,12 +98,14 @@ def body_sensitivities(exp, run, mm: MechMods, base_q: np.ndarray, joint: int, e
     link +1.8 %, the foot +0.4 %, the toe -2.9 %); true offsets of 3.8 and 7.1 kPa at the neck
     yaw and left elbow of seeds 7102-7103 stood at 9.4 and 17.1 (6.9 and 17.8 beside the scale)."""
     robot = run.robot
-    out = []
-    for body in subtree_bodies(robot.model, robot.joint_names[joint]):
-        probed = replace(mm, mass_scale={**mm.mass_scale, body: mm.mass_scale.get(body, 0.0) + MASS_PROBE})
-        q = pressure_driven_angles(exp, run.mods, probed, every=every)[rows]
-        out.append((q[..., joint] - base_q[..., joint]) / MASS_PROBE)
-    return np.stack(out, axis=-1)
+    out = np.zeros(base_q.shape[:2] + (0,))      # a subtree without mass: no nuisance
+    for group in body_groups(robot.model, robot.joint_names[joint]):
+        scale = dict(mm.mass_scale)
+        for body in group:
+            scale[body] = scale.get(body, 0.0) + MASS_PROBE
+        q = pressure_driven_angles(exp, run.mods, replace(mm, mass_scale=scale), every=every)[rows]
+        out = np.concatenate([out, ((q[..., joint] - base_q[..., joint]) / MASS_PROBE)[..., None]], axis=-1)
+    return out
 
 
 def partialled(a: np.ndarray, nuisance: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

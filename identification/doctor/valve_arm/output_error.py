@@ -90,7 +90,9 @@ def search_output_error(run: DoctorRun, say) -> None:
         base_t = pressure_driven_angles(run.exp, run.mods, mm, every=TRAIN_EVERY)
         base_h = pressure_driven_angles(run.held, run.mods, mm)
         named_joints = {f.scored.hyp.joint for f in run.findings if f.output_error}
-        every = [fit_by_output_error(run, s, step, mm, base_t) for s, step in cands if s.hyp.joint not in named_joints]
+        nuisances = {}      # each joint's mass nuisances against this round's body
+        every = [fit_by_output_error(run, s, step, mm, base_t, nuisances) for s, step in cands
+                 if s.hyp.joint not in named_joints]
         every = [f for f in every if f is not None]
         fits = [f for f in every if f.train_gain >= MIN_TRAIN_GAIN and physical(f) and significant(f)]
         for f in fits:

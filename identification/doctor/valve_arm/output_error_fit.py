@@ -86,12 +86,14 @@ def window_rows(exp, every: int) -> np.ndarray:
 
 
 def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
-                        base_q: np.ndarray) -> OutputErrorFit | None:
+                        base_q: np.ndarray, nuisances: dict | None = None) -> OutputErrorFit | None:
     """Candidate ``s`` (a Scored hypothesis) fitted on its joint's training angle: the
     replay's change for each parameter's probe ``step`` (k,), one Gauss-Newton step from zero
     (``base_q``: the training replay of ``base_mm``, every TRAIN_EVERY-th window), beside the
-    mass of each body of its joint's subtree for a family of MASS_NUISANCE.  None when the replays do not move the
-    angle in k directions."""
+    mass of each body of its joint's subtree for a family of MASS_NUISANCE (``nuisances``:
+    joint -> those sensitivities, kept between the candidates fitted against the same
+    ``base_mm``, as an offset's two chambers are).  None when the replays do not move the angle
+    in k directions."""
     h, exp = s.hyp, run.exp
     rows = window_rows(exp, TRAIN_EVERY)
     cols = []
@@ -105,7 +107,10 @@ def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
     ok = np.all(np.isfinite(A), axis=(1, 2)) & np.all(np.isfinite(r), axis=1)
     nuisance = None
     if h.family in MASS_NUISANCE:
-        nuisance = body_sensitivities(exp, run, base_mm, base_q[rows], h.joint, TRAIN_EVERY, rows)
+        nuisances = {} if nuisances is None else nuisances
+        if h.joint not in nuisances:
+            nuisances[h.joint] = body_sensitivities(exp, run, base_mm, base_q[rows], h.joint, TRAIN_EVERY, rows)
+        nuisance = nuisances[h.joint]
         ok &= np.all(np.isfinite(nuisance), axis=(1, 2))
     A, r = A[ok], r[ok]
     if nuisance is not None:
