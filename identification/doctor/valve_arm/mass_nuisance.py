@@ -51,10 +51,14 @@ def subtree_bodies(model, joint: str) -> list[str]:
 
 def with_subtree_masses(mm: MechMods, model, joint_names, joints, share: float) -> MechMods:
     """``mm`` with the masses below each of ``joints`` (indices) changed by ``share``."""
+    return with_body_masses(mm, [b for j in joints for b in subtree_bodies(model, joint_names[j])], share)
+
+
+def with_body_masses(mm: MechMods, bodies, share: float) -> MechMods:
+    """``mm`` with the masses (and inertias) of ``bodies`` changed by ``share``."""
     scale = dict(mm.mass_scale)
-    for j in joints:
-        for b in subtree_bodies(model, joint_names[j]):
-            scale[b] = scale.get(b, 0.0) + share
+    for b in bodies:
+        scale[b] = scale.get(b, 0.0) + share
     return replace(mm, mass_scale=scale)
 
 
@@ -98,14 +102,11 @@ def body_sensitivities(exp, run, mm: MechMods, base_q: np.ndarray, joint: int, e
     link +1.8 %, the foot +0.4 %, the toe -2.9 %); true offsets of 3.8 and 7.1 kPa at the neck
     yaw and left elbow of seeds 7102-7103 stood at 9.4 and 17.1 (6.9 and 17.8 beside the scale)."""
     robot = run.robot
-    out = np.zeros(base_q.shape[:2] + (0,))      # a subtree without mass: no nuisance
+    cols = []
     for group in body_groups(robot.model, robot.joint_names[joint]):
-        scale = dict(mm.mass_scale)
-        for body in group:
-            scale[body] = scale.get(body, 0.0) + MASS_PROBE
-        q = pressure_driven_angles(exp, run.mods, replace(mm, mass_scale=scale), every=every)[rows]
-        out = np.concatenate([out, ((q[..., joint] - base_q[..., joint]) / MASS_PROBE)[..., None]], axis=-1)
-    return out
+        q = pressure_driven_angles(exp, run.mods, with_body_masses(mm, group, MASS_PROBE), every=every)[rows]
+        cols.append((q[..., joint] - base_q[..., joint]) / MASS_PROBE)
+    return np.stack(cols, axis=-1) if cols else np.zeros(base_q.shape[:2] + (0,))  # no mass: no nuisance
 
 
 def partialled(a: np.ndarray, nuisance: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
