@@ -92,11 +92,11 @@ BODY_WORSE_RATIO = 1.5
 
 
 def pressure_driven_angles(exp: Experiment, pmods: PneumaticMods, mm: MechMods,
-                           horizon_s: float = HORIZON_S, every: int = 1, burn_in: int | None = None) -> np.ndarray:
+                           horizon_s: float = HORIZON_S, every: int = 1) -> np.ndarray:
     """(N, J) the angles as read, replayed in windows of ``horizon_s`` from the measured state
     with the measured pressures (``pmods``'s sensor offsets removed) and ``mm``'s rigid body
     and torques; NaN on the rows no window replays (``every``: only every such window) and on
-    each window's first ``burn_in`` (BURN_IN_ROWS) rows, which set its restart velocity
+    each window's first BURN_IN_ROWS rows, which set its restart velocity
     (:func:`restart_velocity_error`): the window is replayed over them and its velocity
     corrected, BURN_IN_PASSES times, then replayed whole."""
     robot = exp.robot
@@ -105,7 +105,7 @@ def pressure_driven_angles(exp: Experiment, pmods: PneumaticMods, mm: MechMods,
     starts = starts[::every]
     offset, scale, q0, qd0 = start_state(exp, starts, mm)
     forces = actuator_force(robot.tables, fine_pressures(exp, pmods))       # (F, n_act)
-    K = min(BURN_IN_ROWS if burn_in is None else burn_in, H - 1)
+    K = min(BURN_IN_ROWS, H - 1)
     for _ in range(BURN_IN_PASSES if K > 0 else 0):
         first = read_angles(exp, model, mm, pmods, forces, starts, q0, qd0, K, offset, scale)
         qd0 = qd0 - restart_velocity_error(first - exp.q[starts[:, None] + 1 + np.arange(K)], exp) / (1.0 + scale)

@@ -8,8 +8,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import angle_replay
-from .angle_replay import CHAMBER_TERM, HORIZON_S, pressure_driven_angles, with_chamber_terms, with_replay_terms
+from .angle_replay import (
+    BURN_IN_ROWS,
+    CHAMBER_TERM,
+    HORIZON_S,
+    pressure_driven_angles,
+    with_chamber_terms,
+    with_replay_terms,
+)
 from .mass_nuisance import body_sensitivities, partialled
 from .replay import MechMods, window_starts
 from .rules import MIN_T, DoctorRun, passes_keep_rule
@@ -81,7 +87,7 @@ def window_rows(exp, every: int) -> np.ndarray:
     """(W, H - BURN_IN_ROWS) the rows each replayed window of pressure_driven_angles(..., every)
     fills (after its burn-in)."""
     starts, H = window_starts(exp, HORIZON_S)
-    rows = starts[::every, None] + 1 + np.arange(min(angle_replay.BURN_IN_ROWS, H - 1), H)[None]
+    rows = starts[::every, None] + 1 + np.arange(min(BURN_IN_ROWS, H - 1), H)[None]
     return rows[np.all(rows < len(exp.t), axis=1)]
 
 
