@@ -230,6 +230,5 @@ def locate_output_error(run: DoctorRun, f: Finding) -> None:
     before, after = (np.nan_to_num(e) for e in err["held"])
     f.windows = windows(run.held.t, np.abs(before))
     rows = window_rows(run.held, 1)
-    rows = rows[np.all(rows < len(run.held.t), axis=1)]
     f.inclusion = bootstrap_inclusion((before[rows] ** 2).sum(axis=1), (after[rows] ** 2).sum(axis=1), OUTPUT_ERROR_KEEP)
 
