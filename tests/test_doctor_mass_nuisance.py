@@ -143,3 +143,17 @@ def test_a_large_subtree_is_grouped_with_its_first_bodies_alone():
     assert sum(waist, []) == subtree_bodies(m, "waist_yaw") and len(waist[-1]) > 10
     assert waist[0] == [m.body(int(m.joint("waist_yaw").bodyid[0])).name]
     assert body_groups(m, "left_ankle_pitch") == [[b] for b in subtree_bodies(m, "left_ankle_pitch")]
+
+
+def test_no_windows_left_partial_nothing_and_fit_nothing():
+    """A joint whose replays left no window (all NaN: its family not screened there, every
+    replay failed) is partialled as it is and gives no fit, not an error (a fresh humanoid38
+    case with a supply droop stopped the doctor at the screen, 2026-12-07)."""
+    empty = np.zeros((0, 20))
+    for nuisance in (empty, np.zeros((0, 20, 3))):
+        a, r = partialled(empty, nuisance, empty)
+        assert a.shape == r.shape == (0, 20)
+    nan = np.full((30, 20), np.nan)
+    s, r = joint_data(nan, nan, nan)
+    assert s.shape[0] == r.shape[0] == 0
+    assert gauss_newton_step(s[:, :, None], r) is None

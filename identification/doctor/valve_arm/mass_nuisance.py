@@ -113,14 +113,15 @@ def partialled(a: np.ndarray, nuisance: np.ndarray, r: np.ndarray) -> tuple[np.n
     """(a, r) each taken off its least-squares projection on ``nuisance`` (W, H) or (W, H, m),
     m nuisances at once: what the nuisances cannot explain; ``a`` (W, H) or (W, H, k), each of
     its k columns on its own, ``r`` (W, H).  Nuisances that do not move the angle leave both as
-    they are."""
-    n = nuisance.reshape(nuisance.shape[0] * nuisance.shape[1], -1)
+    they are, as does an empty set of windows (a joint whose replays all failed)."""
+    rows = nuisance.shape[0] * nuisance.shape[1]
+    n = nuisance.reshape(rows, nuisance.shape[2] if nuisance.ndim == 3 else 1)
     keep = np.all(np.isfinite(n), axis=0) & (np.sum(n ** 2, axis=0) > 0)
-    if not np.any(keep):
+    if rows == 0 or not np.any(keep):
         return a, r
 
     def off(x):
-        flat = x.reshape(n.shape[0], -1)
+        flat = x.reshape(rows, x.shape[2] if x.ndim == 3 else 1)
         coef = np.linalg.lstsq(n[:, keep], flat, rcond=None)[0]
         return (flat - n[:, keep] @ coef).reshape(x.shape)
 

@@ -116,10 +116,11 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
                 got = mass_sensitivity(exp, run, base_mm, base, level, SCREEN_EVERY, rows)
                 nuisance[:, :, level] = got[:, :, level]
         data = [joint_data(sens[:, :, j], r[:, :, j], None if nuisance is None else nuisance[:, :, j])
-                for j in range(J)]
+                if (family, j) in hyps else None for j in range(J)]
         fits = []
-        for j, (s_j, r_j) in enumerate(data):
-            got = None if (family, j) not in hyps else gauss_newton_step(s_j[:, :, None], r_j)
+        for j, got in enumerate(data):
+            if got is not None:     # too few windows left: gauss_newton_step gives None
+                got = gauss_newton_step(got[0][:, :, None], got[1])
             fits.append(None if got is None else OutputErrorFit(Scored(hyps[(family, j)], got[2]), *got))
         # what a joint's mismatch gives this family anyway: the gains of its physical fits at
         # every joint (an unphysical one counts as none), whose spread a true effect stands out of
