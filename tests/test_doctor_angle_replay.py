@@ -162,12 +162,12 @@ def test_where_the_body_was_held_nominal_a_tie_does_not_keep_a_finding():
     assert angle_rule_verdict(0.03987, 0.03973, body_kept=False).startswith("no better")  # seed 709's false offset
 
 
-def test_the_burn_in_recovers_a_restart_velocity_error(arm2):
-    """Each window's restart velocity is corrected by the slope of its first rows' error
-    (angle_replay.restart_velocity_error): replays started 0.3 rad/s off, read against replays
-    started right, give back the 0.3 rad/s within 10 %, and a second pass most of the rest."""
+def test_the_burn_in_recovers_a_restart_angle_and_velocity_error(arm2):
+    """Each window's restart angle and velocity are corrected by the line through its first
+    rows' error (angle_replay.restart_state_error): replays started 2 mrad and 0.3 rad/s off,
+    read against replays started right, give both back within 15 % (the angle's error also
+    moves the body over those rows: 2.2 mrad found), and a second pass most of the rest."""
     from identification.doctor.valve_arm import angle_replay
-    from identification.doctor.valve_arm.data import fine_pressures
     from identification.doctor.valve_arm.replay import replay_model, start_state, window_starts
 
     exp = prepare(arm2, _recording(arm2))
@@ -175,15 +175,19 @@ def test_the_burn_in_recovers_a_restart_velocity_error(arm2):
     model = replay_model(arm2, nominal, mm)
     starts, _ = window_starts(exp, angle_replay.HORIZON_S)
     offset, scale, q0, qd0 = start_state(exp, starts, mm)
-    forces = actuator_force(arm2.tables, fine_pressures(exp, nominal))
+    forces = angle_replay.replay_forces(exp, nominal)
     K = angle_replay.BURN_IN_ROWS
-    right = angle_replay.read_angles(exp, model, mm, nominal, forces, starts, q0, qd0, K, offset, scale)
-    off = angle_replay.read_angles(exp, model, mm, nominal, forces, starts, q0, qd0 + 0.3, K, offset, scale)
-    found = angle_replay.restart_velocity_error(off - right, exp)
-    np.testing.assert_allclose(np.median(found, axis=0), 0.3, rtol=0.1)
-    # a second pass (BURN_IN_PASSES) from the corrected velocity takes most of what is left
-    # (measured: 5 % of it stays)
-    again = angle_replay.read_angles(exp, model, mm, nominal, forces, starts, q0, qd0 + 0.3 - found, K, offset, scale)
-    left = 0.3 - found - angle_replay.restart_velocity_error(again - right, exp)
-    assert np.sqrt(np.mean(left ** 2)) < 0.3 * np.sqrt(np.mean((0.3 - found) ** 2))
+
+    def read(dq, dqd):
+        return angle_replay.read_angles(exp, model, mm, nominal, forces, starts, q0 + dq, qd0 + dqd, K, offset, scale)
+
+    right = read(0.0, 0.0)
+    angle, velocity = angle_replay.restart_state_error(read(0.002, 0.3) - right, exp)
+    np.testing.assert_allclose(np.median(angle, axis=0), 0.002, rtol=0.15)
+    np.testing.assert_allclose(np.median(velocity, axis=0), 0.3, rtol=0.15)
+    # a second pass (BURN_IN_PASSES) from the corrected state takes most of what is left
+    again = angle_replay.restart_state_error(read(0.002 - angle, 0.3 - velocity) - right, exp)
+    for first, second, true in ((angle, again[0], 0.002), (velocity, again[1], 0.3)):
+        left = true - first - second
+        assert np.sqrt(np.mean(left ** 2)) < 0.3 * np.sqrt(np.mean((true - first) ** 2))
 

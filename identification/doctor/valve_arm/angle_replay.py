@@ -27,15 +27,22 @@ body): the jaw's false viscous friction (0.0185 N m s/rad) raised the jaw angle'
 1.7-3.3 times on all five; the true viscous friction of three of them lowered their joint's
 1.16-6.7 times.
 
-Each window restarts from the angles' light spline, whose velocity is off by 0.56 rad/s rms on
-humanoid38's limit cycle; that error, not the effects, dominated the replays' mismatch
-(docs/humanoid_doctor.md).  Each window is therefore first replayed over its first
-BURN_IN_ROWS rows, whose error's slope gives the restart velocity's error
-(:func:`restart_velocity_error`; BURN_IN_PASSES times, each from the last correction), then
-whole from the corrected velocity, judged only after those rows, where an effect has had time
-to act.  On a development recording of humanoid38 (seed 7100, nominal body, +-3 % errors) the
-38 joints' summed squared NRMSE fell 0.34 -> 0.10 and a 0.03 N m Coulomb friction's replayed
-change against the mismatch rose 0.43 -> 0.68 (medians over the joints).
+What the replays are driven with and started from decides what they can show.  On a
+development recording of humanoid38 (seed 7100, nominal body, +-3 % errors, 60 s; made again
+with the simulator's own 1 ms pressures and states kept), the 38 joints' summed squared NRMSE
+of the nominal body is 0.0011 -- the angle sensors' noise -- from the simulator's pressures,
+states and bodies; 0.020 with the nominal bodies; 0.21 from the true states but the cubic
+through the pressure samples; 0.12 as the replays ran before the smoother, from the samples'
+cubic and the angles' light spline, whose restart angle and velocity are 3.2 mrad and
+0.36 rad/s rms off on the limit cycle.  So each window is driven by the smoothed pressures
+(pressure_smoother.py: the chamber model between the samples) and first replayed over its
+first BURN_IN_ROWS rows, whose error's line gives its restart angle's and velocity's errors
+(:func:`restart_state_error`; BURN_IN_PASSES times, each from the last correction), then
+whole from the corrected state, judged only after those rows, where an effect has had time to
+act: 0.062 on seed 7100, and a 0.03 N m Coulomb friction's replayed change against the
+mismatch 0.93 (median over the joints; 0.65 with the cubic and the velocity alone corrected,
+0.43 with neither the velocity nor the smoother).  With the cubic, correcting the angle too
+gained little (0.11 and 0.62): the pressures' errors between the samples bent the line.
 """
 from __future__ import annotations
 
@@ -48,9 +55,10 @@ from pneumatics.chamber import actuator_force
 from pneumatics.effects.angle_sensor_offset import reading_error
 from pneumatics.effects.backlash import addresses, set_drive_state
 
-from .data import Experiment, fine_pressures
+from .data import Experiment
 from .naming import add_breakaway
 from .pneumatic_mods import PneumaticMods
+from .pressure_smoother import smoothed_pressures
 from .replay import MechMods, drive_signs, replay_model, start_state, step_windows, window_starts
 from .rules import DoctorRun, Finding
 from .sensor_offsets import apply_offset
@@ -60,13 +68,13 @@ from .sensor_offsets import apply_offset
 #: humanoid's waist and head): over 0.1-0.2 s the nominal humanoid's replayed angles kept a
 #: median NRMSE of 0.03-0.05, over 0.5 s 0.25 (development recordings, seed 7000)
 HORIZON_S = 0.2
-#: each window's first rows spent setting its restart velocity and not scored
-#: (:func:`restart_velocity_error`)
+#: each window's first rows spent setting its restart angle and velocity and not scored
+#: (:func:`restart_state_error`)
 BURN_IN_ROWS = 5
-#: how many times the restart velocity is corrected over those rows, each pass from the last
-#: one's velocity: the slope is the velocity error's first-order answer, and the joints' coupling
-#: bends it.  The nominal body's summed squared NRMSE on development seeds 7100 and 7102: one
-#: pass 0.129 and 0.121, two 0.103 and 0.108, three 0.100 (7100)
+#: how many times the restart state is corrected over those rows, each pass from the last
+#: one's: the line is the state error's first-order answer, and the joints' coupling bends it.
+#: The nominal body's summed squared NRMSE on development seed 7100 (smoothed pressures): two
+#: passes 0.062, four 0.055 (each pass costs a quarter of the window's replay)
 BURN_IN_PASSES = 2
 #: the torque-balance terms this rule judges (MechMods attributes): torque laws, and the angle
 #: sensors' offset and gain (the replay starts from the true angle and reads it through the
@@ -96,19 +104,21 @@ def pressure_driven_angles(exp: Experiment, pmods: PneumaticMods, mm: MechMods,
     """(N, J) the angles as read, replayed in windows of ``horizon_s`` from the measured state
     with the measured pressures (``pmods``'s sensor offsets removed) and ``mm``'s rigid body
     and torques; NaN on the rows no window replays (``every``: only every such window) and on
-    each window's first BURN_IN_ROWS rows, which set its restart velocity
-    (:func:`restart_velocity_error`): the window is replayed over them and its velocity
-    corrected, BURN_IN_PASSES times, then replayed whole."""
+    each window's first BURN_IN_ROWS rows, which set its restart state
+    (:func:`restart_state_error`): the window is replayed over them and its angle and velocity
+    corrected, BURN_IN_PASSES times, then replayed whole.  The cylinders push with the
+    smoothed 1 ms pressures (:func:`replay_forces`)."""
     robot = exp.robot
     model = replay_model(robot, pmods, mm)
     starts, H = window_starts(exp, horizon_s)
     starts = starts[::every]
     offset, scale, q0, qd0 = start_state(exp, starts, mm)
-    forces = actuator_force(robot.tables, fine_pressures(exp, pmods))       # (F, n_act)
+    forces = replay_forces(exp, pmods)                                      # (F, n_act)
     K = min(BURN_IN_ROWS, H - 1)
-    for _ in range(BURN_IN_PASSES if K > 0 else 0):
+    for _ in range(BURN_IN_PASSES if K > 1 else 0):
         first = read_angles(exp, model, mm, pmods, forces, starts, q0, qd0, K, offset, scale)
-        qd0 = qd0 - restart_velocity_error(first - exp.q[starts[:, None] + 1 + np.arange(K)], exp) / (1.0 + scale)
+        dq, dqd = restart_state_error(first - exp.q[starts[:, None] + 1 + np.arange(K)], exp)
+        q0, qd0 = q0 - dq / (1.0 + scale), qd0 - dqd / (1.0 + scale)
     out = np.full((len(exp.t), len(robot.joint_names)), np.nan)
     read = read_angles(exp, model, mm, pmods, forces, starts, q0, qd0, H, offset, scale)
     out[starts[:, None] + 1 + np.arange(K, H)] = read[:, K:]
@@ -137,16 +147,28 @@ def read_angles(exp: Experiment, model, mm: MechMods, pmods: PneumaticMods, forc
     return out
 
 
-def restart_velocity_error(err: np.ndarray, exp: Experiment) -> np.ndarray:
-    """(W, J) how far each window's restart velocity is off [rad/s], from its replay's angle
-    error ``err`` (W, K, J) over its first K rows: the least-squares slope through zero at the
-    restart, each row's error set at the time it stands for (a DAQ mean at the middle of its
-    interval).  Over tens of milliseconds an effect has hardly acted, but a velocity error has
-    grown linearly: the angles' light spline restarts the windows 0.56 rad/s rms off on the
-    nominal humanoid38's limit cycle (docs/humanoid_doctor.md)."""
-    k = np.arange(1, err.shape[1] + 1) - (0.5 if exp.averaged else 0.0)
-    tau = k / exp.rate_hz
-    return np.einsum("wkj,k->wj", err, tau) / float(np.sum(tau ** 2))
+def replay_forces(exp: Experiment, pmods: PneumaticMods) -> np.ndarray:
+    """(F, n_act) the cylinders' forces on the 1 ms grid from the pressures between the samples
+    (pressure_smoother.smoothed_pressures, ``pmods``'s chamber model), ``pmods``'s sensor
+    offsets taken off."""
+    p = smoothed_pressures(exp, pmods)
+    offset = pmods.sensor_offsets(exp.clock_at(fine=True))
+    return actuator_force(exp.robot.tables, p if offset is None else p - offset)
+
+
+def restart_state_error(err: np.ndarray, exp: Experiment) -> tuple[np.ndarray, np.ndarray]:
+    """((W, J), (W, J)) how far each window's restart angle [rad] and velocity [rad/s] are off,
+    from its replay's angle error ``err`` (W, K, J) over its first K rows: the least-squares
+    line through them, each row's error set at the time it stands for (a DAQ mean at the middle
+    of its interval).  Over tens of milliseconds an effect has hardly acted, but an angle error
+    has stayed and a velocity error grown linearly: the angles' light spline restarts the
+    windows 3.2 mrad and 0.36 rad/s rms off (medians over the joints) on the limit cycle of
+    development seed 7100 (humanoid38, nominal, +-3 % errors), whose velocities are 4 rad/s rms."""
+    K = err.shape[1]
+    tau = (np.arange(1, K + 1) - (0.5 if exp.averaged else 0.0)) / exp.rate_hz
+    line = np.linalg.pinv(np.column_stack([np.ones(K), tau]))         # (2, K)
+    angle, velocity = np.einsum("ik,wkj->iwj", line, err)
+    return angle, velocity
 
 
 def angle_nrmse(exp: Experiment, predicted: np.ndarray, j: int) -> float:
