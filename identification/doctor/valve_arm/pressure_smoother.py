@@ -15,7 +15,7 @@ motion sweeps.
 pressure replays do), so each is one scalar state-space model with state x_k = p(t_k):
 
     x_{k+1} = phi_k(x_k) + w_k,     w_k ~ N(0, q),   q = (PROCESS_SD_PA)^2 per 100 Hz interval
-    z_k     = mu_k(x_k) + v_k,      v_k ~ N(0, r),   r = the pressures' noise floor squared
+    z_k     = mu_k(x_k) + v_k,      v_k ~ N(0, r),   r = the sensors' noise squared (measurement_sd)
 
 where phi_k integrates the chamber equations (pneumatic.ChamberModel, the calibrated ``mods``)
 over [t_k, t_{k+1}] from x_k with the commands held and the measured lengths, and z_k is the
