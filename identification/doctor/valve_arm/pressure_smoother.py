@@ -61,9 +61,8 @@ def smoothed_pressures(exp: Experiment, mods: PneumaticMods) -> np.ndarray:
     """(F, C) every chamber's pressure [Pa] on the 1 ms grid as read (sensor offsets not taken
     off), smoothed as the module's docstring says with the chamber model ``mods``; kept on
     ``exp`` for the next call with the same recording and chamber model."""
-    cache = exp.smoothed_cache
-    key = (id(exp.p), id(exp.u), id(exp.fine_length), mods_key(mods))
-    for entry in cache:
+    cache, key = exp.smoothed_cache, mods_key(mods)
+    for entry in cache:     # a copy of ``exp`` (dataclasses.replace) shares the list
         if entry[0] == key and entry[1] is exp.p and entry[2] is exp.u and entry[3] is exp.fine_length:
             return entry[4]
     out = _smooth(exp, mods)
@@ -91,7 +90,9 @@ def _smooth(exp: Experiment, mods: PneumaticMods) -> np.ndarray:
     mods = mods.copy(**{name: None for name in SENSOR_FIELDS})
     S, N = exp.n_sub, exp.t.size
     ref = exp.p_at_t
-    path, plus = (interval_paths(exp, mods, x) for x in (ref[:-1], ref[:-1] + SLOPE_STEP_PA))
+    intervals = np.arange(N - 1)
+    both = interval_paths(exp, mods, np.concatenate([ref[:-1], ref[:-1] + SLOPE_STEP_PA]), np.tile(intervals, 2))
+    path, plus = both[:N - 1], both[N - 1:]
     phi, mu = _end_and_mean(path, exp.averaged)
     phi_up, mu_up = _end_and_mean(plus, exp.averaged)
     cut = np.zeros(N - 1, bool)         # interval k leads into a pooled recording's start
@@ -99,7 +100,7 @@ def _smooth(exp: Experiment, mods: PneumaticMods) -> np.ndarray:
     F, H = (phi_up - phi) / SLOPE_STEP_PA, (mu_up - mu) / SLOPE_STEP_PA
     q, r = PROCESS_SD_PA ** 2 * (100.0 / exp.rate_hz), measurement_sd(exp) ** 2
     x = rts_smoother(phi, F, mu, H, exp.p[1:], ref, q, r, PRIOR_SD_PA ** 2, cut)
-    path = interval_paths(exp, mods, x[:-1])                       # (N - 1, S, C) at the fine steps 1..S
+    path = interval_paths(exp, mods, x[:-1], intervals)            # (N - 1, S, C) at the fine steps 1..S
     start = np.concatenate([x[:-1, None], path[:, :-1]], axis=1)   # fine steps 0..S-1 of each interval
     gap = x[1:] - path[:, -1]
     fine = start + (np.arange(S) / S)[None, :, None] * gap[:, None, :]
@@ -123,12 +124,13 @@ def measurement_sd(exp: Experiment) -> float:
     return max(min(float(exp.robot.fluid.sensors.pressure_noise_pa), pressure_sigma(exp)), 1.0)
 
 
-def interval_paths(exp: Experiment, mods: PneumaticMods, x: np.ndarray) -> np.ndarray:
-    """(N - 1, S, C) each sample interval's chamber pressures [Pa] at its fine steps 1..S,
-    replayed from ``x`` (N - 1, C) at its start with the commands and lengths measured (all
-    intervals at once: pneumatic.replay's set-up with one-sample windows on the 1 ms grid)."""
+def interval_paths(exp: Experiment, mods: PneumaticMods, x: np.ndarray, intervals: np.ndarray) -> np.ndarray:
+    """(M, S, C) the chamber pressures [Pa] at the fine steps 1..S of sample intervals
+    ``intervals`` (M,), each replayed from ``x`` (M, C) at its start with the commands and
+    lengths measured (all at once: pneumatic.replay's set-up with one-sample windows on the
+    1 ms grid)."""
     S = exp.n_sub
-    first = np.arange(x.shape[0]) * S
+    first = np.asarray(intervals, int) * S
     model = ChamberModel(exp.robot, mods, x.shape[0])
     u_all = effective_commands(exp, mods)
     travel = model.travel(drive_side_lengths(exp, mods))
