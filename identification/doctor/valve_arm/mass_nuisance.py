@@ -116,8 +116,8 @@ def partialled(a: np.ndarray, nuisance: np.ndarray, r: np.ndarray) -> tuple[np.n
     they are, as does an empty set of windows (a joint whose replays all failed)."""
     rows = nuisance.shape[0] * nuisance.shape[1]
     n = nuisance.reshape(rows, nuisance.shape[2] if nuisance.ndim == 3 else 1)
-    keep = np.all(np.isfinite(n), axis=0) & (np.sum(n ** 2, axis=0) > 0)
-    if rows == 0 or not np.any(keep):
+    keep = np.all(np.isfinite(n), axis=0) & (np.sum(n ** 2, axis=0) > 0)   # no rows: none kept
+    if not np.any(keep):
         return a, r
 
     def off(x):
