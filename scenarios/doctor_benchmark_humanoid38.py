@@ -159,15 +159,17 @@ def humanoid_case(case: dict) -> dict:
 #: at the joints (``output_error_screen``, by joint or actuator: a pressure-sensor offset's is
 #: stated on its cylinder's chamber a, the force it fakes, and used for either chamber) and the
 #: pneumatic keep rule's at the chambers (``chamber_detection_limit``, chamber_limits.py, by
-#: hypothesis.place_of).  A stiction's torque never exceeds its Coulomb level plus its breakaway
-#: excess (pneumatics/effects/friction.py, friction_torque), so that sum is set against the
-#: Coulomb friction's limit: a Coulomb friction of that level the doctor said it could not show.
+#: hypothesis.place_of).  A stiction's breakaway excess, what names it and not a Coulomb
+#: friction, against the screen's limit of that excess (output_error_screen.breakaway_only): the
+#: excess acts below the Stribeck velocity alone, and set against the Coulomb friction's limit
+#: as a level of F_c + excess it was called over its limit where the recording could not show it
+#: (a 0.03 N m excess moves humanoid38's replayed angles a fifteenth as much as a 0.03 N m
+#: Coulomb level, development seed 7100).
 JOINTS, CHAMBERS = "output_error_screen", "chamber_detection_limit"
 TRUTH_SIZE = {
     "coulomb_friction": (lambda p: p["friction"]["coulomb_nm"], [(JOINTS, "coulomb_friction")]),
     "viscous_friction": (lambda p: p["friction"]["viscous_nm_s"], [(JOINTS, "viscous_friction")]),
-    "stiction": (lambda p: p["friction"].get("coulomb_nm", 0.0) + p["friction"]["stiction_extra_nm"],
-                 [(JOINTS, "coulomb_friction")]),
+    "stiction": (lambda p: p["friction"]["stiction_extra_nm"], [(JOINTS, "stiction")]),
     "angle_sensor_offset": (lambda p: p["angle_offset_rad"], [(JOINTS, "angle_sensor_offset")]),
     "pressure_sensor_offset": (lambda p: p["pressure_offset_pa"],
                                [(JOINTS, "pressure_sensor_offset"), (CHAMBERS, "pressure_sensor_offset")]),
@@ -184,7 +186,8 @@ TRUTH_SIZE = {
                      [(CHAMBERS, "supply_droop")]),
 }
 """(a size of None: the effect is in another form than the one the limit is stated for -- a
-supply whose droop is quadratic or low-passed)"""
+supply whose droop is quadratic or low-passed; a stiction's size is its breakaway excess, what
+tells it from a Coulomb friction, against the screen's limit of that excess)"""
 
 
 def effect_against_limit(effect: dict, diagnostics: dict) -> dict:

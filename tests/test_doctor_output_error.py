@@ -86,6 +86,12 @@ def test_a_true_coulomb_friction_is_named_at_its_joint_with_its_value(coulomb_nm
     assert named[0]["heldout_nrmse"] == {"before": pytest.approx(a["before"]), "after": pytest.approx(a["after"])}
     assert named[0]["t"][0] >= 8 and named[0]["train_gain"] >= 0.2
     assert all(r["verdict"].startswith(("named", "refused: ", "passed, ")) for r in records)
+    # a stiction's limit is stated on its breakaway excess: at the shoulder, where nothing is,
+    # over a Coulomb level's (the excess acts below the Stribeck velocity alone)
+    screen = run.output_error_screen
+    assert screen["stiction"]["parameter"] == "breakaway_extra_nm"
+    limit = {fam: screen[fam]["detection_limit"]["shoulder"] for fam in ("coulomb_friction", "stiction")}
+    assert limit["stiction"] > 1.5 * limit["coulomb_friction"]
 
 
 def test_a_pressure_sensor_offset_is_named_by_the_force_it_fakes_and_taken_out_of_the_readings():

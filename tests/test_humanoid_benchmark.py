@@ -224,11 +224,14 @@ def test_a_silent_case_is_counted_under_the_detection_limit_only_where_the_docto
     assert effect_against_limit(leak, diagnostics)["limit"] is None          # none stated at jaw.a
     assert effect_against_limit(small_leak, diagnostics) == {"family": "valve_leak", "size": 1e-9, "limit": 2e-9}
     assert effect_against_limit(coulomb, {})["limit"] is None               # the screen did not run
-    # a stiction's torque is at most its Coulomb level plus its breakaway excess: that sum
-    # against the Coulomb friction's limit at its joint
+    # a stiction is told from a Coulomb friction by its breakaway excess: that against the
+    # screen's limit of the excess at its joint, none where the screen stated none
     stiction = {"family": "stiction", "where": {"joint": "right_knee"},
                 "parameters": {"friction": {"coulomb_nm": 0.02, "stiction_extra_nm": 0.05, "stribeck_rad_s": 0.08}}}
-    assert effect_against_limit(stiction, diagnostics) == {"family": "stiction", "size": pytest.approx(0.07), "limit": 0.3}
+    assert effect_against_limit(stiction, diagnostics)["limit"] is None
+    with_excess = {**screen, "stiction": {"parameter": "breakaway_extra_nm", "detection_limit": {"right_knee": 0.4}}}
+    assert effect_against_limit(stiction, {"output_error_screen": with_excess}) == {
+        "family": "stiction", "size": 0.05, "limit": 0.4}
 
     def row(effect, findings=()):
         return {"effects": [effect], "findings": list(findings), "unexplained": [],

@@ -22,7 +22,7 @@ cluster-robust with the replay windows as clusters (Liang & Zeger, Biometrika 73
 window's errors are one draw, not H.
 
 1. **Screen** (output_error_screen.py): one replay per parameter and group of joints no one of which
-   is an ancestor of another (``joint_levels``; 5 x 11 replays of a third of the training
+   is an ancestor of another (``joint_levels``; 6 x 11 replays of a third of the training
    windows on humanoid38, one of them the subtree masses'), every joint probed at once; each
    joint's family fitted on its own angle from them (a pressure-sensor offset beside its
    joint's subtree mass, mass_nuisance).
