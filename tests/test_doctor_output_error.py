@@ -85,6 +85,10 @@ def test_a_true_coulomb_friction_is_named_at_its_joint_with_its_value(coulomb_nm
     assert [r["hypothesis"] for r in named] == [f.scored.hyp.label]
     assert named[0]["heldout_nrmse"] == {"before": pytest.approx(a["before"]), "after": pytest.approx(a["after"])}
     assert named[0]["t"][0] >= 8 and named[0]["train_gain"] >= 0.2
+    # and every joint's held-out angle error from the same replays: its own joint's in the sum,
+    # the whole arm's better with the true friction
+    robot = named[0]["heldout_robot_sum_nrmse2"]
+    assert robot["before"] >= a["before"] ** 2 and robot["after"] < robot["before"]
     assert all(r["verdict"].startswith(("named", "refused: ", "passed, ")) for r in records)
     # a stiction's limit is stated on its breakaway excess: at the shoulder, where nothing is,
     # over a Coulomb level's (the excess acts below the Stribeck velocity alone)

@@ -149,6 +149,7 @@ def candidate_record(run: DoctorRun, f: OutputErrorFit, round_: int, best: Outpu
             "t": [float(v / e) if e > 0 else None for v, e in zip(f.values, se)],
             "train_gain": float(f.train_gain),
             "heldout_nrmse": {"before": _or_none(f.before), "after": _or_none(f.after)},
+            "heldout_robot_sum_nrmse2": {"before": _or_none(f.robot_before), "after": _or_none(f.robot_after)},
             "verdict": verdict}
 
 
@@ -189,10 +190,16 @@ def take_offset(run: DoctorRun, finding: Finding) -> None:
 
 def judge_heldout(run: DoctorRun, f: OutputErrorFit, mm: MechMods, base_h: np.ndarray) -> None:
     """``f``'s joint's held-out angle NRMSE without it (``base_h``: the held-out replay of
-    ``mm``) and with it."""
+    ``mm``) and with it, and every joint's from the same two replays, squared and summed: a
+    record of what the effect does to its neighbours (a false offset at a child of the true
+    one's joint was named first, at a better ratio of its own joint, on case 115603554 of the
+    stopped fresh run of `0bcea36`)."""
     j, held = f.scored.hyp.joint, run.held
     q = replayed(held, run, mm, terms_of(f.scored.hyp, f.values))
     f.before, f.after = angle_nrmse(held, base_h, j), angle_nrmse(held, q, j)
+    joints = range(len(run.robot.joint_names))
+    f.robot_before = float(sum(angle_nrmse(held, base_h, k) ** 2 for k in joints))
+    f.robot_after = float(sum(angle_nrmse(held, q, k) ** 2 for k in joints))
 
 
 def named(run: DoctorRun, fit: OutputErrorFit, where: dict | None = None, places=()) -> Finding:

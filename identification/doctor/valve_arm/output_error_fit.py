@@ -61,6 +61,8 @@ class OutputErrorFit:
     train_gain: float       # share of the joint's training angle mean square removed
     before: float = np.nan  # the joint's held-out angle NRMSE without it ...
     after: float = np.nan   # ... and with it
+    robot_before: float = np.nan  # every joint's held-out angle NRMSE squared, summed, without it ...
+    robot_after: float = np.nan   # ... and with it (an effect moves its neighbours' angles too)
 
     @property
     def ratio(self) -> float:
