@@ -194,9 +194,10 @@ def detection_limit(sens: np.ndarray, r: np.ndarray, fit: OutputErrorFit, family
     theta with signature ``sens`` (W, H) removes g = |S theta|^2 / (|S theta|^2 + |e|^2), so
     theta = sqrt(g / (1 - g)) |e| / |S|, with e the replay's mismatch at the screen's windows
     (``r`` (W, H), :func:`joint_data`'s) less what the screen's ``fit`` took of it: an effect
-    at the joint is not counted in the error it must stand out of.  Below it a silent joint is no evidence that the effect is absent: the recording
-    cannot show it through this replay.  An approximation (the screen's errors, the mismatch
-    taken as independent), stated as such in the report."""
+    at the joint is not counted in the error it must stand out of.  Below it a silent joint is
+    no evidence that the effect is absent: the recording cannot show it through this replay.
+    An approximation (the screen's errors, the mismatch taken as independent), stated as such
+    in the report."""
     rest = r - sens * fit.values[0]
     by_gain = paying_size(max(floor, MIN_TRAIN_GAIN), float(np.sqrt(np.sum(rest ** 2))),
                           float(np.sqrt(np.sum(sens ** 2))))
