@@ -89,6 +89,10 @@ def test_a_true_coulomb_friction_is_named_at_its_joint_with_its_value(coulomb_nm
     # the whole arm's better with the true friction
     robot = named[0]["heldout_robot_sum_nrmse2"]
     assert robot["before"] >= a["before"] ** 2 and robot["after"] < robot["before"]
+    # a fit that pays in training but falls short of the naming rule's errors is judged on the
+    # held-out angles all the same, for the record (here the viscous friction at the elbow)
+    short = [r for r in records if "standard errors" in r["verdict"]]
+    assert short and all(r["heldout_nrmse"]["after"] is not None for r in short)
     assert all(r["verdict"].startswith(("named", "refused: ", "passed, ")) for r in records)
     # a stiction's limit is stated on its breakaway excess: at the shoulder, where nothing is,
     # over a Coulomb level's (the excess acts below the Stribeck velocity alone)
