@@ -34,15 +34,20 @@ of the nominal body is 0.0011 -- the angle sensors' noise -- from the simulator'
 states and bodies; 0.020 with the nominal bodies; 0.21 from the true states but the cubic
 through the pressure samples; 0.12 as the replays ran before the smoother, from the samples'
 cubic and the angles' light spline, whose restart angle and velocity are 3.2 mrad and
-0.36 rad/s rms off on the limit cycle.  So each window is driven by the smoothed pressures
-(pressure_smoother.py: the chamber model between the samples) and first replayed over its
-first BURN_IN_ROWS rows, whose error's line gives its restart angle's and velocity's errors
-(:func:`restart_state_error`; BURN_IN_PASSES times, each from the last correction), then
-whole from the corrected state, judged only after those rows, where an effect has had time to
-act: 0.062 on seed 7100, and a 0.03 N m Coulomb friction's replayed change against the
-mismatch 0.93 (median over the joints; 0.65 with the cubic and the velocity alone corrected,
-0.43 with neither the velocity nor the smoother).  With the cubic, correcting the angle too
-gained little (0.11 and 0.62): the pressures' errors between the samples bent the line.
+0.36 rad/s rms off on the limit cycle.  So each window is driven by the observer's pressures
+(state_observer.py: the whole robot simulated under the recorded commands, corrected at every
+sample by the angles and pressures read) and started from the angles' spline and the
+observer's velocity; it is first replayed over its first BURN_IN_ROWS rows, whose error's line
+gives its restart angle's and velocity's errors (:func:`restart_state_error`; BURN_IN_PASSES
+times, each from the last correction, the velocity's by BURN_IN_VELOCITY_SHARE), then whole
+from the corrected state, judged only after those rows, where an effect has had time to act:
+0.035 on seed 7100, and a 0.03 N m Coulomb friction's replayed change against the mismatch
+1.23 (median over the joints).  Before the observer: 0.062 and 0.93 with a Kalman smoother of
+each chamber alone between the samples (its volume from the angles' spline) and the spline's
+velocity, 0.12 and 0.65 with the samples' cubic and the velocity alone corrected, 0.43 with
+neither correction nor smoother.  The simulator's own states at the windows' starts would give
+0.024 with the observer's pressures (0.020 with the simulator's): the restart state is what
+limits the replays now.
 """
 from __future__ import annotations
 
@@ -58,7 +63,7 @@ from pneumatics.effects.backlash import addresses, set_drive_state
 from .data import Experiment
 from .naming import add_breakaway
 from .pneumatic_mods import PneumaticMods
-from .pressure_smoother import smoothed_pressures
+from .state_observer import observed_states
 from .replay import MechMods, drive_signs, replay_model, start_state, step_windows, window_starts
 from .rules import DoctorRun, Finding
 from .sensor_offsets import apply_offset
@@ -73,9 +78,19 @@ HORIZON_S = 0.2
 BURN_IN_ROWS = 5
 #: how many times the restart state is corrected over those rows, each pass from the last
 #: one's: the line is the state error's first-order answer, and the joints' coupling bends it.
-#: The nominal body's summed squared NRMSE on development seed 7100 (smoothed pressures): two
-#: passes 0.062, four 0.055 (each pass costs a quarter of the window's replay)
+#: The nominal body's summed squared NRMSE on development seed 7100 (the smoother's pressures
+#: and the spline's velocity, the velocity's error taken whole): two passes 0.062, four 0.055
+#: (each pass costs a quarter of the window's replay); the observer's: one pass taking the
+#: velocity's error whole 0.058, two taking half of it 0.035, three taking a quarter 0.035
 BURN_IN_PASSES = 2
+#: the share of the burn-in's velocity error each pass takes off (the angle's is taken whole).  The
+#: observer's velocity (state_observer.py) is a prior about as good as the line's slope over a
+#: few noisy rows, and the slope also takes up what an effect did over them.  Development seeds
+#: 7100, 7101, 7103 (nominal body, observer's pressures; summed squared NRMSE, and a 0.03 N m
+#: Coulomb friction's replayed change against the mismatch, median over the joints): the whole
+#: slope 0.039 / 0.044 / 0.037 and 1.09 / 1.06 / 1.17; half of it 0.035 / 0.033 / 0.038 and
+#: 1.23 / 1.52 / 1.35; 0.3 of it 0.031 / 0.035 / 0.058 and 1.58 / 1.78 / 1.20
+BURN_IN_VELOCITY_SHARE = 0.5
 #: the torque-balance terms this rule judges (MechMods attributes): torque laws, and the angle
 #: sensors' offset and gain (the replay starts from the true angle and reads it through the
 #: sensor; a true offset of 0.014-0.058 rad on arm2's development recordings of the random-form
@@ -107,18 +122,20 @@ def pressure_driven_angles(exp: Experiment, pmods: PneumaticMods, mm: MechMods,
     each window's first BURN_IN_ROWS rows, which set its restart state
     (:func:`restart_state_error`): the window is replayed over them and its angle and velocity
     corrected, BURN_IN_PASSES times, then replayed whole.  The cylinders push with the
-    smoothed 1 ms pressures (:func:`replay_forces`)."""
+    observer's 1 ms pressures (:func:`replay_forces`), and each window starts from the angles'
+    light spline and the observer's velocity (state_observer.py)."""
     robot = exp.robot
     model = replay_model(robot, pmods, mm)
     starts, H = window_starts(exp, horizon_s)
     starts = starts[::every]
-    offset, scale, q0, qd0 = start_state(exp, starts, mm)
+    offset, scale, q0, _ = start_state(exp, starts, mm)
+    qd0 = observed_states(exp, pmods).velocity_rad_s[starts * exp.n_sub] / (1.0 + scale)
     forces = replay_forces(exp, pmods)                                      # (F, n_act)
     K = min(BURN_IN_ROWS, H - 1)
     for _ in range(BURN_IN_PASSES if K > 1 else 0):
         first = read_angles(exp, model, mm, pmods, forces, starts, q0, qd0, K, offset, scale)
         dq, dqd = restart_state_error(first - exp.q[starts[:, None] + 1 + np.arange(K)], exp)
-        q0, qd0 = q0 - dq / (1.0 + scale), qd0 - dqd / (1.0 + scale)
+        q0, qd0 = q0 - dq / (1.0 + scale), qd0 - BURN_IN_VELOCITY_SHARE * dqd / (1.0 + scale)
     out = np.full((len(exp.t), len(robot.joint_names)), np.nan)
     read = read_angles(exp, model, mm, pmods, forces, starts, q0, qd0, H, offset, scale)
     out[starts[:, None] + 1 + np.arange(K, H)] = read[:, K:]
@@ -149,9 +166,9 @@ def read_angles(exp: Experiment, model, mm: MechMods, pmods: PneumaticMods, forc
 
 def replay_forces(exp: Experiment, pmods: PneumaticMods) -> np.ndarray:
     """(F, n_act) the cylinders' forces on the 1 ms grid from the pressures between the samples
-    (pressure_smoother.smoothed_pressures, ``pmods``'s chamber model), ``pmods``'s sensor
+    (state_observer.observed_states, ``pmods``'s chamber model), ``pmods``'s sensor
     offsets taken off."""
-    p = smoothed_pressures(exp, pmods)
+    p = observed_states(exp, pmods).pressure_pa
     offset = pmods.sensor_offsets(exp.clock_at(fine=True))
     return actuator_force(exp.robot.tables, p if offset is None else p - offset)
 

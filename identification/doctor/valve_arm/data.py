@@ -60,10 +60,10 @@ class Experiment:
     #: each chamber's share of the supply flow at the measured pressures, kept between replays
     #: (supply_shares.SupplyShares; made on first use; a copy's own data are told apart by identity)
     supply_shares: object = field(default=None, repr=False, compare=False)
-    #: the rigid body's replays' smoothed 1 ms pressures, kept between replays
-    #: (pressure_smoother.smoothed_pressures; a copy shares the list, its entries told apart by
+    #: the rigid body's replays' observed 1 ms pressures and velocities, kept between replays
+    #: (state_observer.observed_states; a copy shares the list, its entries told apart by
     #: the identity of the arrays they were made from)
-    smoothed_cache: list = field(default_factory=list, repr=False, compare=False)
+    observer_cache: list = field(default_factory=list, repr=False, compare=False)
 
     def like_q_s(self, x: np.ndarray, j: int) -> np.ndarray:
         """x (N,) smoothed as joint j's angle was (its spline's lambda, per pooled recording).
