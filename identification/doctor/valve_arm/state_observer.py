@@ -24,11 +24,12 @@ chambers' volumes carry the motion's harmonics; the pressure corrections keep ea
 its sensor.  On seed 7100 against the simulator's own 1 ms states: pressures 0.89 kPa rms,
 velocities 0.082 rad/s rms.  The replays' summed squared NRMSE of the nominal body (38 joints)
 went from 0.062 (the smoothed pressures, the spline's velocity, the restart corrected over the
-burn-in) to 0.039 (this module's pressures and velocities, the same burn-in); with the
+burn-in) to 0.039 (this module's pressures and velocities, the same burn-in; 0.035 with the
+burn-in taking half the velocity's error, angle_replay.BURN_IN_VELOCITY_SHARE); with the
 simulator's states at the windows' starts, 0.024 with this module's pressures and 0.020 with
-the simulator's own.  Gains on that seed (angle, velocity, pressure): 0.5, 0.2, 0.5 -> 0.039;
-0.5, 0.2, 0.9 -> 0.039; 0.5, 0.4, 0.7 -> 0.042; lower angle gains follow the motion worse
-(0.3, 0.1, 0.5: 1.6 mrad rms against 1.4).
+the simulator's own.  Gains on that seed (angle, velocity, pressure; the whole burn-in):
+0.5, 0.2, 0.5 -> 0.039; 0.5, 0.2, 0.9 -> 0.039; 0.5, 0.4, 0.7 -> 0.042; lower angle gains
+follow the motion worse (0.3, 0.1, 0.5: 1.6 mrad rms against 1.4).
 
 The observer runs the nominal rigid body: it estimates states, and the replays judge bodies and
 torques from them.  It runs on the pressures as read (the sensor offsets' fields left out of the
@@ -73,8 +74,6 @@ class ObservedStates:
     pressure_pa: np.ndarray
     #: (F, J) every joint's velocity [rad/s], in the angle sensors' units (as read)
     velocity_rad_s: np.ndarray
-    #: (F, J) every joint's angle [rad] as read (no sensor law applied)
-    angle_rad: np.ndarray
 
 
 def observed_states(exp: Experiment, mods: PneumaticMods) -> ObservedStates:
@@ -117,12 +116,11 @@ def observe(exp: Experiment, mods: PneumaticMods) -> ObservedStates:
     F = exp.fine_t.size
     pressure = np.empty((F, tab.n_chambers))
     velocity = np.empty((F, len(qadr)))
-    angle = np.empty((F, len(qadr)))
     bounds = (0, *exp.breaks, exp.t.size)
     for first, end in zip(bounds[:-1], bounds[1:]):
         f0, f1 = first * S, (end - 1) * S
         p, receiver = restart(exp, model, data, chambers, u, first, qadr, dadr)
-        pressure[f0], velocity[f0], angle[f0] = p[0], data.qvel[dadr], data.qpos[qadr]
+        pressure[f0], velocity[f0] = p[0], data.qvel[dadr]
         travel0 = chambers.travel(lengths(model, data, ids))
         acc_q, acc_p = np.zeros(len(qadr)), np.zeros(tab.n_chambers)
         for f in range(f0, f1):
@@ -143,11 +141,11 @@ def observe(exp: Experiment, mods: PneumaticMods) -> ObservedStates:
                 p = p + PRESSURE_GAIN * e_p[None]
                 acc_q[:], acc_p[:] = 0.0, 0.0
                 travel0 = chambers.travel(lengths(model, data, ids))
-            pressure[f + 1], velocity[f + 1], angle[f + 1] = p[0], data.qvel[dadr], data.qpos[qadr]
+            pressure[f + 1], velocity[f + 1] = p[0], data.qvel[dadr]
         if end < exp.t.size:        # the fine rows padding a join hold the part's last state
-            for arr in (pressure, velocity, angle):
+            for arr in (pressure, velocity):
                 arr[f1 + 1:end * S] = arr[f1]
-    return ObservedStates(pressure, velocity, angle)
+    return ObservedStates(pressure, velocity)
 
 
 def restart(exp: Experiment, model, data, chambers: ChamberModel, u: np.ndarray, first: int, qadr, dadr):
