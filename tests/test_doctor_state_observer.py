@@ -12,7 +12,6 @@ from identification.doctor.valve_arm.data import FINE_DT, fine_pressures, pool, 
 from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 from identification.doctor.valve_arm.state_observer import observed_states
 from pneumatics.effects.backlash import addresses
-from pneumatics.robot import load_robot
 from pneumatics.runner import run
 from pneumatics.sim import Simulation
 
@@ -34,11 +33,6 @@ class RecordedSimulation(Simulation):
         for _ in range(int(n)):
             super().step(1)
             self.keep()
-
-
-@pytest.fixture(scope="module")
-def arm2():
-    return load_robot("arm2")
 
 
 def _recorded(robot, seconds: float, seed: int):
