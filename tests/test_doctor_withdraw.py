@@ -3,6 +3,7 @@ worsening, withdraw_worsening): a torque-balance finding whose coupled held-out 
 own channel worse is withdrawn, and the report says why."""
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from identification.doctor.valve_arm.final_fit import WORSE_RATIO, worsening
@@ -40,6 +41,35 @@ def test_an_output_error_finding_may_not_leave_its_channel_worse_at_all():
     balance = _finding(0.0600, 0.0605)
     run = SimpleNamespace(findings=[slightly, tie, balance], kept_mech=[balance.scored.hyp], refine=[])
     assert worsening(run) == [slightly]
+
+
+def test_an_output_error_finding_is_judged_by_its_typical_window_not_one_that_runs_away():
+    """One 1 s window of an open-loop replay that runs away carries the NRMSE: a joint effect
+    fitted by output error is judged by the median over the windows of its channel's error
+    ratio (replay.typical_window_ratio); the torque balance's findings keep the NRMSE."""
+    from identification.doctor.valve_arm.replay import ReplayResult, typical_window_ratio
+
+    rng = np.random.default_rng(0)
+    W, H = 29, 20
+    truth = rng.normal(0, 0.1, W * H)
+    err = rng.normal(0, 0.008, (W, H))
+    err[9] *= 15                                   # the window that runs away
+    before = ReplayResult({"q.j": truth + err.ravel()}, {"q.j": truth}, np.arange(W * H), np.arange(W * H), H)
+    better = err * 0.9
+    better[9] *= 1.5                               # 10 % better in every window but the runaway one
+    after = ReplayResult({"q.j": truth + better.ravel()}, {"q.j": truth}, np.arange(W * H), np.arange(W * H), H)
+    assert after.nrmse()["q.j"] > 1.1 * before.nrmse()["q.j"]
+    assert typical_window_ratio(before, after, "q.j") == pytest.approx(0.9)
+    assert typical_window_ratio(before, ReplayResult({}, {}, np.arange(H), np.arange(H), H), "q.j") is None
+
+    kept = _finding(0.06, 0.08, kept=False, output_error=True)
+    kept.nrmse["typical_window_ratio"] = 0.95      # NRMSE worse, the typical window better
+    gone = _finding(0.06, 0.05, kept=False, output_error=True)
+    gone.nrmse["typical_window_ratio"] = 1.02      # NRMSE better, the typical window worse
+    balance = _finding(0.06, 0.08)
+    balance.nrmse["typical_window_ratio"] = 0.9    # a torque-balance finding: its NRMSE decides
+    run = SimpleNamespace(findings=[kept, gone, balance], kept_mech=[balance.scored.hyp], refine=[])
+    assert worsening(run) == [balance, gone]
 
 
 # a whole doctor's run, slow for CI's 15 minutes;

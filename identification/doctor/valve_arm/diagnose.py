@@ -43,7 +43,7 @@ from .torque_balance import torque_data
 from .output_error import search_output_error
 from .pneumatic import Windows
 from .pneumatic_mods import PneumaticMods
-from .replay import MechMods, coupled_replay
+from .replay import MechMods, coupled_replay, typical_window_ratio
 from .rules import HOLDOUT_SHARE, HORIZON, DoctorRun, Finding
 from .search import search_mechanical, search_pneumatic, start_torque_balance
 from .twin import twin_gains
@@ -180,7 +180,8 @@ def _prove(run: DoctorRun) -> dict:
     nb, nf = base_replay.nrmse(), final_replay.nrmse()
     for f in run.findings:
         ch = max(_channels(f, robot), key=lambda c: nb[c] - nf[c])
-        f.nrmse = {"before": nb[ch], "after": nf[ch], "channel": ch}
+        f.nrmse = {"before": nb[ch], "after": nf[ch], "channel": ch,
+                   "typical_window_ratio": typical_window_ratio(base_replay, final_replay, ch)}
         # the channel's NRMSE inside each regime of the finding's place (those the replays visit)
         f.nrmse["by_regime"] = {name: {"before": base_replay.nrmse(m)[ch], "after": final_replay.nrmse(m)[ch],
                                        "share_of_time": float(np.mean(m[base_replay.index]))}
@@ -304,6 +305,7 @@ def _finding_json(f: Finding) -> dict:
         "parameters": f.params,
         "heldout_nrmse": {"before": f.nrmse.get("before"), "after": f.nrmse.get("after")},
         "heldout_channel": f.nrmse.get("channel"),
+        "heldout_typical_window_ratio": f.nrmse.get("typical_window_ratio"),
         "heldout_nrmse_in_regime": f.nrmse.get("in_regime"),
         "heldout_nrmse_by_regime": f.nrmse.get("by_regime", {}),
         "heldout_nrmse_angle_replay": f.angle_replay or None,
