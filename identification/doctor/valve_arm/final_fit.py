@@ -134,9 +134,10 @@ def withdraw_worsening(run: DoctorRun, f, why: str | None = None) -> None:
     stayed an alternative place moves there (``f.other_place``): the pressure replays could not
     tell the chambers apart, and the coupled replay, which reads each chamber's own pressure
     through its sensor, judges the other in turn."""
-    typical = f" (its typical window {worse_ratio(f):.3g} times the error)" if f.output_error else ""
-    why = why or (f"makes the held-out coupled replay worse: NRMSE of {f.nrmse['channel']} "
-                  f"{f.nrmse['before']:.3g} before, {f.nrmse['after']:.3g} after{typical}")
+    if why is None:
+        typical = f" (its typical window {worse_ratio(f):.3g} times the error)" if f.output_error else ""
+        why = (f"makes the held-out coupled replay worse: NRMSE of {f.nrmse['channel']} "
+               f"{f.nrmse['before']:.3g} before, {f.nrmse['after']:.3g} after{typical}")
     if _may_fall_back(run, f.scored.hyp):
         _fall_back(run, f.scored.hyp, why)
         drop_torque_terms(run, [])
