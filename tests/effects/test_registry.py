@@ -153,8 +153,9 @@ def test_every_effect_field_of_the_doctors_chamber_model_is_filled_by_a_family(a
     # outside the vocabulary on purpose: a wall that yields, fitted only to tell it from a
     # line's volume (identification/doctor/valve_arm/compliance.py), never a finding
     outside = {"wall_compliance_m3_pa"}
-    # the receiver's path along each recording its fit left (supply_receiver): the fit's, not a parameter
-    fitted_paths = {"receiver_paths"}
+    # the receiver's path along each recording its fit left (supply_receiver), and the supply's
+    # path held for a candidate's fit at its cylinders (supply_path): the fits', not parameters
+    fitted_paths = {"receiver_paths", "supply_paths"}
     assert filled == {f.name for f in dataclasses.fields(PneumaticMods)} - calibration - outside - fitted_paths
 
 

@@ -58,6 +58,8 @@ class PneumaticMods:
     supply_leak_kg_s_pa: float = 0.0          # ... the system's leak to the room [kg/(s Pa)]
     receiver_paths: dict = None               # recording set key (receiver.experiment_key) -> (F,) the receiver's
                                               # pressure [Pa] along it, as its fit left it (supply_receiver)
+    supply_paths: dict = None                 # recording set key -> (F,) the supply pressure [Pa] held along it in
+                                              # place of the supply's laws (supply_path.with_held_supply)
     heat_w_k: np.ndarray = None               # gas-wall conductance h A [W/K]; NaN = eq. 9 (heat_transfer)
     backlash_rad: np.ndarray = None           # (n_act,) play between cylinder and link [rad] (backlash)
     wall_compliance_m3_pa: np.ndarray = None  # dV/dp of a compliant wall [m^3/Pa]: V += C (p - p_room); not a

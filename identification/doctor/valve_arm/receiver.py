@@ -135,7 +135,11 @@ def receiver_trajectory(exp: Experiment, model, u_fine: np.ndarray) -> np.ndarra
     compressor (None without one): the path its fit left for this recording set (the model's
     ``receiver_paths``: integrated again under each refitted calibration, a relaxation
     oscillator's phase would drift from the one fitted), else integrated from the cut-out, the
-    compressor off, as the simulator starts."""
+    compressor off, as the simulator starts.  A supply path the model holds in place of its
+    supply's laws (``supply_paths``, supply_path.with_held_supply) comes first."""
+    held = (model.mods.supply_paths or {}).get(experiment_key(exp))
+    if held is not None:
+        return held
     c = compressor_of(model.mods)
     if c is None:
         return None

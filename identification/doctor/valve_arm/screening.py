@@ -18,6 +18,7 @@ from .calibrate import fit_chambers
 from .joint_fit import fit_effect
 from .mechanics import fit_rigid_body
 from .pneumatic import chambers_independent, cylinder_chambers, replay
+from .supply_path import with_held_supply, with_supply_of
 
 
 def channel_gains(before: np.ndarray, after: np.ndarray) -> np.ndarray:
@@ -154,7 +155,9 @@ def fit_pneumatic(s: Scored, exp, win, mods, sigma, held=None):
     units of their probe steps (a leak area of 1e-8 m^2 and a delay of 0.01 s both become O(1)),
     so the finite-difference Jacobian's relative steps mean the same for every parameter.  Its
     own cylinders alone are refitted where :func:`own_cylinders` allows, on ``exp`` and on the
-    held-out experiment ``held`` that will judge it (None: ``exp`` alone)."""
+    held-out experiment ``held`` that will judge it (None: ``exp`` alone); under a shared
+    supply, with the supply's pressure held on the path the model gives it
+    (supply_path.with_held_supply), the fitted model then getting the supply's laws back."""
     h = s.hyp
     names = [p[0] for p in h.params]
     unit = np.array([p[4] for p in h.params])
@@ -163,8 +166,14 @@ def fit_pneumatic(s: Scored, exp, win, mods, sigma, held=None):
     hi = np.array([p[3] for p in h.params]) / unit
     extra = (names, x0, lo, hi, lambda m, z: h.apply(m, z * unit), [h.chambers] * len(names))
     wide = h.chambers if h.adds_volume else ()
-    s.refitted = own_cylinders(h, mods, exp.robot.tables.n_chambers, (exp, held) if held is not None else (exp,))
-    new_mods, fit = fit_chambers(exp, win, mods, sigma, extra=extra, wide_dead_volume=wide, chambers=s.refitted)
+    exps = (exp, held) if held is not None else (exp,)
+    # at chambers under a shared supply: fitted with the supply's pressure held on its path
+    # (supply_path), its own cylinders alone, and the supply's laws put back
+    fitted_on = with_held_supply(mods, (exp,)) if h.chambers and "supply" not in h.where else mods
+    s.refitted = own_cylinders(h, fitted_on, exp.robot.tables.n_chambers, exps)
+    new_mods, fit = fit_chambers(exp, win, fitted_on, sigma, extra=extra, wide_dead_volume=wide, chambers=s.refitted)
+    if fitted_on is not mods:
+        new_mods = with_supply_of(new_mods, mods)
     k = len(names)
     fit.values[-k:] *= unit
     fit.stderr[-k:] *= unit

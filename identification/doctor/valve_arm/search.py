@@ -20,6 +20,7 @@ from .compliance import compliant_wall, wall_alternative
 from .mechanics import calibrate_rigid_body, fit_rigid_body
 from .torque_balance import torque_data, with_pressures
 from .naming import friction_named, line_named
+from .pneumatic import chambers_independent
 from .rules import END_STOP_HYPOTHESES, MAX_ROUNDS, MECH_KEEP, PNEU_KEEP, YARDSTICK_SHARE, DoctorRun, Finding, min_predicted
 from .sensor_offsets import corrected, offset_place
 from .supply_receiver import receiver_candidate
@@ -55,7 +56,8 @@ def search_pneumatic(run: DoctorRun, say) -> None:
         for s in top:
             fits.fit(s, exp, run.fit_win, run.mods, run.sigma, held, say)
             # where the fit refitted its own cylinders alone, the others replay as before
-            own = s.refitted
+            # (all of them where they share a supply: its fit held the supply's path)
+            own = s.refitted if chambers_independent(s.mods, (held,)) else None
             s.heldout_before, s.heldout_after = base_h, chamber_rms(held, win_h, s.mods, own, base_h)
             s.heldout_null = chamber_rms(held, win_h, s.hyp.switched_off(s.mods), own, base_h)
         note_supply_candidates(run, top)
