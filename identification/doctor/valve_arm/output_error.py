@@ -161,8 +161,8 @@ def refusal(f: OutputErrorFit) -> str:
 def candidate_record(run: DoctorRun, f: OutputErrorFit, round_: int, best: OutputErrorFit | None) -> dict:
     """What the report keeps of one output-error candidate of round ``round_``: its fit, its
     held-out judgement where it got one, and its verdict (named, beaten by the round's best,
-    which took more off the robot's held-out angle error, or the rule it failed) -- the answer to 'why was nothing named at
-    this joint?'."""
+    which took more off the robot's held-out angle error, or the rule it failed) -- the answer
+    to 'why was nothing named at this joint?'."""
     why = refusal(f)
     verdict = ("named" if f is best else f"refused: {why}" if why
                else f"passed, the round's best was {best.scored.hyp.label}")

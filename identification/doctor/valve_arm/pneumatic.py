@@ -357,9 +357,17 @@ def filtered_supply_flow(exp: Experiment, model: ChamberModel, u_fine: np.ndarra
     time constant (effects.supply_droop, backward Euler as the step's), at the measured
     pressures and the nominal supply: the receiver's state where a replay window starts (a
     window started from no flow would see the nominal supply for a time constant)."""
-    total = measured_supply_flow(exp, model, u_fine, model.tab.supply_pa)
-    a = FINE_DT / (model.mods.supply_droop_tau_s + FINE_DT)
-    return lfilter([a], [1.0, a - 1.0], total, zi=[(1.0 - a) * total[0]])[0]
+    return reservoir_flow(measured_supply_flow(exp, model, u_fine, model.tab.supply_pa), model.mods.supply_droop_tau_s)
+
+
+def reservoir_flow(total_kg_s: np.ndarray, tau_s: float) -> np.ndarray:
+    """(F,) the total supply flow [kg/s] on the 1 ms grid low-passed with the reservoir form's
+    time constant ``tau_s`` (effects.supply_droop.filtered_flow's backward Euler, started at the
+    first flow); tau_s = 0: the flow itself."""
+    if tau_s <= 0:
+        return total_kg_s
+    a = FINE_DT / (tau_s + FINE_DT)
+    return lfilter([a], [1.0, a - 1.0], total_kg_s, zi=[(1.0 - a) * total_kg_s[0]])[0]
 
 
 def chambers_independent(mods: PneumaticMods, exps=()) -> bool:

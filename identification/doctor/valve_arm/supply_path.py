@@ -20,19 +20,18 @@ fitted alone; :func:`with_supply_of` puts the laws back into the fitted model.
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import lfilter
 
+from pneumatics.effects import effect_set
 from pneumatics.effects.supply_droop import droop_pa
 
-from .data import FINE_DT, Experiment
-from .pneumatic import ChamberModel, chambers_independent, effective_commands, has_droop
+from .data import Experiment
+from .pneumatic import ChamberModel, chambers_independent, effective_commands, has_droop, reservoir_flow
 from .pneumatic_mods import PneumaticMods
 from .receiver import experiment_key, measured_supply_flow, receiver_trajectory
 
-#: the chamber model's fields that make up its supply (the droop's and the compressor's laws)
-SUPPLY_FIELDS = ("supply_droop_pa_per_kg_s", "supply_droop_pa_per_kg2_s2", "supply_droop_tau_s",
-                 "supply_receiver_m3", "supply_compressor_kg_s", "supply_band_pa", "supply_cut_out_pa",
-                 "supply_leak_kg_s_pa", "receiver_paths", "supply_paths")
+#: the chamber model's fields that make up its supply: the droop's and the compressor's laws (the
+#: effect set's supply fields) and the paths held along the recordings
+SUPPLY_FIELDS = (*effect_set.SUPPLY_FIELDS, "receiver_paths", "supply_paths")
 
 
 def supply_path(exp: Experiment, mods: PneumaticMods) -> np.ndarray:
@@ -47,10 +46,7 @@ def supply_path(exp: Experiment, mods: PneumaticMods) -> np.ndarray:
         return np.broadcast_to(source, exp.fine_t.shape).astype(float)
     path = source
     for _ in range(2):  # drawn at the table's supply first, then at the path's
-        total = measured_supply_flow(exp, model, u_fine, path)
-        if mods.supply_droop_tau_s > 0:  # the reservoir form's low-passed flow (pneumatic.filtered_supply_flow's)
-            a = FINE_DT / (mods.supply_droop_tau_s + FINE_DT)
-            total = lfilter([a], [1.0, a - 1.0], total, zi=[(1.0 - a) * total[0]])[0]
+        total = reservoir_flow(measured_supply_flow(exp, model, u_fine, path), mods.supply_droop_tau_s)
         path = source - droop_pa(total, mods.supply_droop_pa_per_kg_s, mods.supply_droop_pa_per_kg2_s2)
     return np.asarray(path, float)
 
