@@ -59,7 +59,9 @@ def test_the_held_path_replays_the_chambers_as_the_drooping_supply_does(tau_s):
     np.testing.assert_array_equal(replay(exp, win, held, np.array([2, 3]))[0], by_path[..., 2:4])
     back = with_supply_of(held, droop)
     assert all(np.all(getattr(back, f) == getattr(droop, f)) for f in SUPPLY_FIELDS if f != "supply_paths")
-    assert back.supply_paths is None and with_held_supply(PneumaticMods.nominal(C), (exp,)) is not None
+    assert back.supply_paths is None
+    stiff = PneumaticMods.nominal(C)
+    assert with_held_supply(stiff, (exp,)) is stiff      # independent chambers: nothing to hold
 
 
 def test_a_leak_fitted_at_its_cylinder_under_the_held_supply_matches_the_fit_of_every_chamber(monkeypatch):
@@ -86,3 +88,31 @@ def test_a_leak_fitted_at_its_cylinder_under_the_held_supply_matches_the_fit_of_
     value = lambda s: s.fit.values[-1]  # noqa: E731
     assert value(fast) == pytest.approx(value(whole), rel=0.05)
     assert value(fast) == pytest.approx(LEAK_M2, rel=0.3)
+
+
+def test_candidate_fits_hold_the_supply_once_per_model_and_fit_as_alone(monkeypatch):
+    """CandidateFits computes the held path once for the candidates fitted against one model,
+    and each fit is the one fit_pneumatic makes on its own."""
+    from identification.doctor.valve_arm import screening
+    from identification.doctor.valve_arm.calibrate import pressure_sigma
+    from identification.doctor.valve_arm.hypotheses import pneumatic_hypotheses
+    from identification.doctor.valve_arm.pneumatic import Windows
+    from identification.doctor.valve_arm.rules import HORIZON
+
+    exp, held = _experiments()
+    mods = _droop_mods(exp.robot.tables.n_chambers)
+    win = Windows.tile(len(exp.t), HORIZON, stride=2 * HORIZON)
+    labels = ("valve_leak@elbow.a", "external_leak@shoulder.b")
+    hyps = [next(h for h in pneumatic_hypotheses(exp.robot) if h.label == label and not h.form) for label in labels]
+    alone = [screening.fit_pneumatic(screening.Scored(h, 0.0), exp, win, mods, pressure_sigma(exp), held) for h in hyps]
+    calls = []
+    original = screening.with_held_supply
+    monkeypatch.setattr(screening, "with_held_supply", lambda m, exps: calls.append(1) or original(m, exps))
+    fits = screening.CandidateFits()
+    together = [screening.Scored(h, 0.0) for h in hyps]
+    for s in together:
+        fits.fit(s, exp, win, mods, pressure_sigma(exp), held)
+    assert len(calls) == 1
+    for a, b in zip(alone, together):
+        np.testing.assert_array_equal(a.fit.values, b.fit.values)
+        assert list(a.refitted) == list(b.refitted)

@@ -150,14 +150,15 @@ def probe_groups(hyps, n_chambers: int) -> list[list]:
     return out + [g for gs in groups.values() for g in gs]
 
 
-def fit_pneumatic(s: Scored, exp, win, mods, sigma, held=None):
+def fit_pneumatic(s: Scored, exp, win, mods, sigma, held=None, held_supply=None):
     """Fit hypothesis s jointly with the chamber calibration.  Its parameters are fitted in
     units of their probe steps (a leak area of 1e-8 m^2 and a delay of 0.01 s both become O(1)),
     so the finite-difference Jacobian's relative steps mean the same for every parameter.  Its
     own cylinders alone are refitted where :func:`own_cylinders` allows, on ``exp`` and on the
     held-out experiment ``held`` that will judge it (None: ``exp`` alone); under a shared
     supply, with the supply's pressure held on the path the model gives it
-    (supply_path.with_held_supply), the fitted model then getting the supply's laws back."""
+    (supply_path.with_held_supply, or ``held_supply``, the same computed once for many
+    candidates), the fitted model then getting the supply's laws back."""
     h = s.hyp
     names = [p[0] for p in h.params]
     unit = np.array([p[4] for p in h.params])
@@ -169,7 +170,9 @@ def fit_pneumatic(s: Scored, exp, win, mods, sigma, held=None):
     exps = (exp, held) if held is not None else (exp,)
     # at chambers under a shared supply: fitted with the supply's pressure held on its path
     # (supply_path), its own cylinders alone, and the supply's laws put back
-    fitted_on = with_held_supply(mods, (exp,)) if h.chambers and "supply" not in h.where else mods
+    fitted_on = mods
+    if h.chambers and "supply" not in h.where:
+        fitted_on = with_held_supply(mods, (exp,)) if held_supply is None else held_supply
     s.refitted = own_cylinders(h, fitted_on, exp.robot.tables.n_chambers, exps)
     new_mods, fit = fit_chambers(exp, win, fitted_on, sigma, extra=extra, wide_dead_volume=wide, chambers=s.refitted)
     if fitted_on is not mods:
@@ -200,21 +203,26 @@ class CandidateFits:
     the search decides exactly as it did."""
 
     def __init__(self):
-        self.mods, self.done = None, {}
+        self.mods, self.exp, self.done, self.held_supply = None, None, {}, None
 
     def fit(self, s: Scored, exp, win, mods, sigma, held=None, say=lambda message: None) -> bool:
         """Fit ``s`` against ``mods`` like fit_pneumatic (judged later on ``held``), or take
         over the fit of the same hypothesis against the same ``mods`` object; returns whether
-        it was taken over."""
+        it was taken over.  The supply's held path (supply_path.with_held_supply: 1-3 s on
+        humanoid38, against a candidate's fit of 4-6 s) is computed once per ``mods``."""
         if mods is not self.mods:
-            self.mods, self.done = mods, {}
+            self.mods, self.done, self.held_supply = mods, {}, None
+        if exp is not self.exp:
+            self.exp, self.held_supply = exp, None
         key = hypothesis_key(s.hyp)
         if REUSE_FITS and key in self.done:
             say(f"{s.hyp.label}: fitted against this model in an earlier round, taken over")
             s.fit, s.mods, s.refitted = self.done[key]
             return True
         say(f"fitting {s.hyp.label}")
-        fit_pneumatic(s, exp, win, mods, sigma, held)
+        if s.hyp.chambers and "supply" not in s.hyp.where and self.held_supply is None:
+            self.held_supply = with_held_supply(mods, (exp,))
+        fit_pneumatic(s, exp, win, mods, sigma, held, self.held_supply)
         self.done[key] = (s.fit, s.mods, s.refitted)
         return False
 
