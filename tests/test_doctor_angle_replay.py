@@ -11,6 +11,7 @@ from identification.doctor.valve_arm.angle_replay import angle_nrmse, pressure_d
 from identification.doctor.valve_arm.data import prepare
 from identification.doctor.valve_arm.pneumatic_mods import PneumaticMods
 from identification.doctor.valve_arm.replay import MechMods
+from identification.doctor.valve_arm.state_observer import observed_states
 from pneumatics.chamber import actuator_force
 from pneumatics.effects.effect_set import EffectSet
 from pneumatics.robot import load_robot
@@ -175,7 +176,7 @@ def test_the_burn_in_recovers_a_restart_angle_and_velocity_error(arm2):
     model = replay_model(arm2, nominal, mm)
     starts, _ = window_starts(exp, angle_replay.HORIZON_S)
     offset, scale, q0, qd0 = start_state(exp, starts, mm)
-    forces = angle_replay.replay_forces(exp, nominal)
+    forces = angle_replay.replay_forces(exp, nominal, observed_states(exp, nominal))
     K = angle_replay.BURN_IN_ROWS
 
     def read(dq, dqd):

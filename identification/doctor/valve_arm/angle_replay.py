@@ -115,7 +115,8 @@ BODY_WORSE_RATIO = 1.5
 
 
 def pressure_driven_angles(exp: Experiment, pmods: PneumaticMods, mm: MechMods,
-                           horizon_s: float = HORIZON_S, every: int = 1) -> np.ndarray:
+                           horizon_s: float = HORIZON_S, every: int = 1,
+                           observer_mech: MechMods | None = None) -> np.ndarray:
     """(N, J) the angles as read, replayed in windows of ``horizon_s`` from the measured state
     with the measured pressures (``pmods``'s sensor offsets removed) and ``mm``'s rigid body
     and torques; NaN on the rows no window replays (``every``: only every such window) and on
@@ -123,14 +124,17 @@ def pressure_driven_angles(exp: Experiment, pmods: PneumaticMods, mm: MechMods,
     (:func:`restart_state_error`): the window is replayed over them and its angle and velocity
     corrected, BURN_IN_PASSES times, then replayed whole.  The cylinders push with the
     observer's 1 ms pressures (:func:`replay_forces`), and each window starts from the angles'
-    light spline and the observer's velocity (state_observer.py)."""
+    light spline and the observer's velocity (state_observer.py), the observer running ``mm``'s
+    body and torques (``observer_mech``'s instead, where given: one observer shared by
+    replays that differ by small probes, an approximation the screens make)."""
     robot = exp.robot
     model = replay_model(robot, pmods, mm)
     starts, H = window_starts(exp, horizon_s)
     starts = starts[::every]
     offset, scale, q0, _ = start_state(exp, starts, mm)
-    qd0 = observed_states(exp, pmods).velocity_rad_s[starts * exp.n_sub] / (1.0 + scale)
-    forces = replay_forces(exp, pmods)                                      # (F, n_act)
+    observed = observed_states(exp, pmods, mm if observer_mech is None else observer_mech)
+    qd0 = observed.velocity_rad_s[starts * exp.n_sub] / (1.0 + scale)
+    forces = replay_forces(exp, pmods, observed)                            # (F, n_act)
     K = min(BURN_IN_ROWS, H - 1)
     for _ in range(BURN_IN_PASSES if K > 1 else 0):
         first = read_angles(exp, model, mm, pmods, forces, starts, q0, qd0, K, offset, scale)
@@ -164,11 +168,11 @@ def read_angles(exp: Experiment, model, mm: MechMods, pmods: PneumaticMods, forc
     return out
 
 
-def replay_forces(exp: Experiment, pmods: PneumaticMods) -> np.ndarray:
+def replay_forces(exp: Experiment, pmods: PneumaticMods, observed) -> np.ndarray:
     """(F, n_act) the cylinders' forces on the 1 ms grid from the pressures between the samples
-    (state_observer.observed_states, ``pmods``'s chamber model), ``pmods``'s sensor
-    offsets taken off."""
-    p = observed_states(exp, pmods).pressure_pa
+    (``observed``: state_observer.observed_states with ``pmods``'s chamber model), ``pmods``'s
+    sensor offsets taken off."""
+    p = observed.pressure_pa
     offset = pmods.sensor_offsets(exp.clock_at(fine=True))
     return actuator_force(exp.robot.tables, p if offset is None else p - offset)
 

@@ -69,7 +69,7 @@ def mass_sensitivity(exp, run, mm: MechMods, base_q: np.ndarray, joints, every: 
     that replay of ``mm`` at ``rows``."""
     robot = run.robot
     probed = with_subtree_masses(mm, robot.model, robot.joint_names, joints, MASS_PROBE)
-    q = pressure_driven_angles(exp, run.mods, probed, every=every)[rows]
+    q = pressure_driven_angles(exp, run.mods, probed, every=every, observer_mech=mm)[rows]
     out = np.full(base_q.shape, np.nan)
     out[..., list(joints)] = (q[..., list(joints)] - base_q[..., list(joints)]) / MASS_PROBE
     return out
@@ -104,7 +104,8 @@ def body_sensitivities(exp, run, mm: MechMods, base_q: np.ndarray, joint: int, e
     robot = run.robot
     cols = []
     for group in body_groups(robot.model, robot.joint_names[joint]):
-        q = pressure_driven_angles(exp, run.mods, with_body_masses(mm, group, MASS_PROBE), every=every)[rows]
+        q = pressure_driven_angles(exp, run.mods, with_body_masses(mm, group, MASS_PROBE), every=every,
+                                   observer_mech=mm)[rows]
         cols.append((q[..., joint] - base_q[..., joint]) / MASS_PROBE)
     return np.stack(cols, axis=-1) if cols else np.zeros(base_q.shape[:2] + (0,))  # no mass: no nuisance
 

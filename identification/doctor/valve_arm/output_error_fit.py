@@ -18,6 +18,7 @@ from .angle_replay import (
 )
 from .mass_nuisance import body_sensitivities, partialled
 from .replay import MechMods, window_starts
+from .state_observer import OBSERVED_MECH
 from .rules import MIN_T, DoctorRun, passes_keep_rule
 from .screening import Scored
 from .search import MECH_ATTRS
@@ -81,12 +82,13 @@ def terms_of(hyp, values) -> list:
     return [(MECH_ATTRS[name], hyp.joint, float(v)) for (name, *_), v in zip(hyp.params, values)]
 
 
-def replayed(exp, run: DoctorRun, mm: MechMods, terms, every: int = 1) -> np.ndarray:
+def replayed(exp, run: DoctorRun, mm: MechMods, terms, every: int = 1, observer_mech: MechMods | None = None) -> np.ndarray:
     """pressure_driven_angles of ``exp`` with the run's chamber model and ``mm``, ``terms``
-    (:func:`terms_of`) added to the one or the other."""
+    (:func:`terms_of`) added to the one or the other; the observer runs them too, or
+    ``observer_mech`` where given (a probe's replays share their base's observer)."""
     J = len(run.robot.joint_names)
     return pressure_driven_angles(exp, with_chamber_terms(run.mods, terms), with_replay_terms(mm, terms, J),
-                                  every=every)
+                                  every=every, observer_mech=observer_mech)
 
 
 def window_rows(exp, every: int) -> np.ndarray:
@@ -104,15 +106,70 @@ def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
     (``base_q``: the training replay of ``base_mm``, every TRAIN_EVERY-th window), beside the
     mass of each body of its joint's subtree for a family of MASS_NUISANCE (``nuisances``:
     joint -> those sensitivities, kept between the candidates fitted against the same
-    ``base_mm``, as an offset's two chambers are).  None when the replays do not move the angle
-    in k directions."""
+    ``base_mm``, as an offset's two chambers are).  A joint torque (a physical one) is fitted
+    again with the state observer running it (:func:`observer_iterated`).  None when the replays do not move
+    the angle in k directions."""
+    fit = step_fit(run, s, step, base_mm, base_q, base_mm, nuisances)
+    if fit is None or not moves_observer(s.hyp, fit.values) or not physical(fit, tested=False):
+        return fit      # an unphysical friction is not run by the observer (it would feed energy in)
+    return observer_iterated(run, s, step, base_mm, fit)
+
+
+#: the observer's fixed-point map is taken as linear only up to this slope (1: no fixed point)
+MAX_OBSERVER_SLOPE = 0.8
+
+
+def observer_iterated(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, first: OutputErrorFit) -> OutputErrorFit | None:
+    """A joint torque's fit with the state observer running it.  The replays are driven by the
+    observer's pressures between the samples, which follow the observer's own motion
+    (state_observer.py): fitted with an observer that runs without the torque, a true viscous
+    friction came out at a third of its value (humanoid38, 918139021: 0.0086 of 0.0267 N m s/rad,
+    the fit from an observer running that value 0.0144, from one running the truth 0.0286).
+    The fit as a function of the value the observer runs, g(theta_obs), is a fixed-point map
+    whose fixed point is the value that explains the recording through a consistent observer;
+    two points of it (the first fit from the observer without the torque, ``first``, and the
+    fit from an observer running ``first``'s values) give its slope, the fixed point of their
+    line (Aitken's extrapolation, Dahlquist & Bjorck, *Numerical Methods*, 1974, §6.6) is the
+    observer's value of a last fit, the one returned.  On that case: 0.0241 N m s/rad, 38
+    cluster-robust errors from zero (9.4 from the first), the training angle's mean square
+    down 83 % (33 %)."""
+    theta1 = np.asarray(first.values, float)
+    second = refit_observed(run, s, step, base_mm, theta1)
+    if second is None:
+        return first
+    d = float(np.dot(second.values - theta1, theta1) / max(float(np.dot(theta1, theta1)), 1e-300))
+    theta = theta1 / (1.0 - float(np.clip(d, -MAX_OBSERVER_SLOPE, MAX_OBSERVER_SLOPE)))
+    last = refit_observed(run, s, step, base_mm, theta)
+    return second if last is None else last
+
+
+def refit_observed(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, theta_obs: np.ndarray) -> OutputErrorFit | None:
+    """:func:`step_fit` of ``s`` with the observer running ``base_mm`` and ``s``'s torque at
+    ``theta_obs``, the probe stepping to ``theta_obs`` where it has the probe's sign."""
+    J = len(run.robot.joint_names)
+    observer = with_replay_terms(base_mm, terms_of(s.hyp, theta_obs), J)
+    base_q = pressure_driven_angles(run.exp, run.mods, base_mm, every=TRAIN_EVERY, observer_mech=observer)
+    probe = np.where((np.sign(theta_obs) == np.sign(step)) & (theta_obs != 0), theta_obs, step)
+    return step_fit(run, s, probe, base_mm, base_q, observer)
+
+
+def moves_observer(hyp, values) -> bool:
+    """Whether hypothesis ``hyp``'s terms act on what the state observer runs (a joint torque:
+    a friction), not on the readings (an angle or pressure sensor's offset)."""
+    return any(attr in OBSERVED_MECH for attr, _, _ in terms_of(hyp, values))
+
+
+def step_fit(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, base_q: np.ndarray,
+             observer: MechMods, nuisances: dict | None = None) -> OutputErrorFit | None:
+    """One Gauss-Newton step from zero (:func:`fit_by_output_error`), every replay's observer
+    running ``observer``."""
     h, exp = s.hyp, run.exp
     rows = window_rows(exp, TRAIN_EVERY)
     cols = []
     for i in range(len(h.params)):
         probe = np.zeros(len(h.params))
         probe[i] = step[i]
-        q = replayed(exp, run, base_mm, terms_of(h, probe), every=TRAIN_EVERY)
+        q = replayed(exp, run, base_mm, terms_of(h, probe), every=TRAIN_EVERY, observer_mech=observer)
         cols.append((q[rows, h.joint] - base_q[rows, h.joint]) / step[i])   # (W, H) d q_j / d theta_i
     A = np.stack(cols, axis=-1)                                            # (W, H, k)
     r = exp.q[rows, h.joint] - base_q[rows, h.joint]                       # (W, H)
@@ -127,8 +184,8 @@ def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
     A, r = A[ok], r[ok]
     if nuisance is not None:
         A, r = partialled(A, nuisance[ok], r)
-    step_fit = gauss_newton_step(A, r)
-    return None if step_fit is None else OutputErrorFit(s, *step_fit)
+    got = gauss_newton_step(A, r)
+    return None if got is None else OutputErrorFit(s, *got)
 
 
 def gauss_newton_step(A: np.ndarray, r: np.ndarray) -> tuple | None:

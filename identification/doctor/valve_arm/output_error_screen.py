@@ -126,7 +126,7 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
             probed = [j for j in level if (family, j) in screen]
             if probed:
                 terms = [t for j in probed for t in terms_of(screen[(family, j)], [steps[param][j]])]
-                q = replayed(exp, run, base_mm, terms, every=SCREEN_EVERY)[rows]
+                q = replayed(exp, run, base_mm, terms, every=SCREEN_EVERY, observer_mech=base_mm)[rows]
                 for j in probed:
                     sens[:, :, j] = (q[:, :, j] - base[:, :, j]) / steps[param][j]
         nuisance = None
