@@ -86,15 +86,17 @@ def search_output_error(run: DoctorRun, say) -> None:
     say("fitting joint effects to the angles they replay (the torque balance does not predict them)")
     body = fit_rigid_body(run.td, *run.base_extra) if run.base_extra else run.rfit
     cands = screened(run, final_mech_mods(run, fit=body))
+    fixed_points = {}   # a friction's last fixed point: the next round's observer starts there
     for rnd in range(MAX_ROUNDS):
         mm = final_mech_mods(run, fit=body)
         base_t = pressure_driven_angles(run.exp, run.mods, mm, every=TRAIN_EVERY)
         base_h = pressure_driven_angles(run.held, run.mods, mm)
         named_joints = {f.scored.hyp.joint for f in run.findings if f.output_error}
         nuisances = {}      # each joint's mass nuisances against this round's body
-        every = [fit_by_output_error(run, s, step, mm, base_t, nuisances) for s, step in cands
-                 if s.hyp.joint not in named_joints]
+        every = [fit_by_output_error(run, s, step, mm, base_t, nuisances, fixed_points.get(s.hyp.label))
+                 for s, step in cands if s.hyp.joint not in named_joints]
         every = [f for f in every if f is not None]
+        fixed_points.update({f.scored.hyp.label: f.values for f in every if f.observed and physical(f, tested=False)})
         # judged on the held-out angles: every fit that pays in training, the significance
         # rule's refusals too, so the report holds what the held-out rule would have said of
         # them (a true 0.034 N m friction of a fresh pair case, 888800293, removed 0.81 of its

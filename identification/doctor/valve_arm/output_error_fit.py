@@ -68,6 +68,7 @@ class OutputErrorFit:
     after: float = np.nan   # ... and with it
     robot_before: float = np.nan  # every joint's held-out angle NRMSE squared, summed, without it ...
     robot_after: float = np.nan   # ... and with it (an effect moves its neighbours' angles too)
+    observed: bool = False        # fitted with the state observer running it (observer_iterated)
 
     @property
     def ratio(self) -> float:
@@ -100,15 +101,23 @@ def window_rows(exp, every: int) -> np.ndarray:
 
 
 def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
-                        base_q: np.ndarray, nuisances: dict | None = None) -> OutputErrorFit | None:
+                        base_q: np.ndarray, nuisances: dict | None = None,
+                        fixed_point: np.ndarray | None = None) -> OutputErrorFit | None:
     """Candidate ``s`` (a Scored hypothesis) fitted on its joint's training angle: the
     replay's change for each parameter's probe ``step`` (k,), one Gauss-Newton step from zero
     (``base_q``: the training replay of ``base_mm``, every TRAIN_EVERY-th window), beside the
     mass of each body of its joint's subtree for a family of MASS_NUISANCE (``nuisances``:
     joint -> those sensitivities, kept between the candidates fitted against the same
     ``base_mm``, as an offset's two chambers are).  A joint torque (a physical one) is fitted
-    again with the state observer running it (:func:`observer_iterated`).  None when the replays do not move
-    the angle in k directions."""
+    again with the state observer running it (:func:`observer_iterated`), or once with the
+    observer at its ``fixed_point`` of an earlier round (the model then differs by a finding
+    elsewhere; each observer of a 60 s recording of humanoid38 costs 4-6 s of a core).
+    None when the replays do not move the angle in k directions."""
+    if fixed_point is not None:
+        fit = refit_observed(run, s, step, base_mm, fixed_point)
+        if fit is not None:
+            fit.observed = True
+            return fit
     fit = step_fit(run, s, step, base_mm, base_q, base_mm, nuisances)
     if fit is None or not moves_observer(s.hyp, fit.values) or not physical(fit, tested=False):
         return fit      # an unphysical friction is not run by the observer (it would feed energy in)
@@ -140,7 +149,9 @@ def observer_iterated(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, fi
     d = float(np.dot(second.values - theta1, theta1) / max(float(np.dot(theta1, theta1)), 1e-300))
     theta = theta1 / (1.0 - float(np.clip(d, -MAX_OBSERVER_SLOPE, MAX_OBSERVER_SLOPE)))
     last = refit_observed(run, s, step, base_mm, theta)
-    return second if last is None else last
+    out = second if last is None else last
+    out.observed = True
+    return out
 
 
 def refit_observed(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, theta_obs: np.ndarray) -> OutputErrorFit | None:
