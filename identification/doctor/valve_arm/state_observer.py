@@ -39,8 +39,9 @@ left_shoulder_pitch (nominal robot, 30 s, development), the observer's pressures
 the friction-following observer's by up to 2.1 kPa rms, and the replays driven by them were
 worse with the true friction than without it (training angle error's mean square 1.20 times
 the frictionless replay's; least at 0.01, 0.64): a fit from them found a third of the truth.
-With the friction in the observer the true value replays 0.14 of that mean square (its
-velocities alone, the start of each window, changed it by 0.001).  It runs on the pressures as read (the sensor offsets' fields left out of the
+With the friction in the observer the true value replays 0.14 of the mean square of the
+frictionless replay through it (its velocities alone, the start of each window, changed it by
+0.001).  It runs on the pressures as read (the sensor offsets' fields left out of the
 chamber model; the replays take the offsets off the forces), and starts again at every join of
 pooled recordings.
 """
