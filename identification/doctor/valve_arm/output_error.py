@@ -28,7 +28,9 @@ window's errors are one draw, not H.
    joint's subtree mass, mass_nuisance).
 2. **Fit** (output_error_fit.py): the candidates that pass the screen, alone (an
    offset beside its subtree mass), from their screened values (k replays for k parameters, one
-   more for the mass; a Coulomb friction also as a stiction).
+   more for the mass; a Coulomb friction also as a stiction); a friction fitted again with the
+   state observer running it, at the fixed point of two fits (observer_iterated), which the
+   next round's observer starts from.
 3. **Name** (:func:`search_output_error`): a fit whose values are physical and OUTPUT_ERROR_MIN_T
    cluster-robust errors from zero, that removes MIN_TRAIN_GAIN of its joint's training angle
    error and replays its joint's held-out angle at most KEEP_RATIO times the NRMSE without it;
