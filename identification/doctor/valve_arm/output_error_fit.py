@@ -128,7 +128,7 @@ def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
 MAX_OBSERVER_SLOPE = 0.8
 
 
-def observer_iterated(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, first: OutputErrorFit) -> OutputErrorFit | None:
+def observer_iterated(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, first: OutputErrorFit) -> OutputErrorFit:
     """A joint torque's fit with the state observer running it.  The replays are driven by the
     observer's pressures between the samples, which follow the observer's own motion
     (state_observer.py): fitted with an observer that runs without the torque, a true viscous

@@ -90,13 +90,14 @@ def observed_states(exp: Experiment, mods: PneumaticMods, mech: MechMods | None 
     """The observer's pressures and velocities (module docstring) with the chamber model
     ``mods`` and the rigid body and joint torques of ``mech`` (None: the nominal body, no
     torques); kept on ``exp`` for the next call with the same recording and models."""
-    cache, key = exp.observer_cache, mods_key(mods) + mech_key(mech)
+    mech_digest = mech_key(mech)
+    cache, key = exp.observer_cache, mods_key(mods) + mech_digest
     for entry in cache:     # a copy of ``exp`` (dataclasses.replace) shares the list
         if entry[0] == key and entry[1] is exp.p and entry[2] is exp.u and entry[3] is exp.q:
             cache.remove(entry)     # the last used go last: a round's base outlives its candidates'
             cache.append(entry)
             return entry[4]
-    out = observe(exp, mods.copy(**{name: None for name in SENSOR_FIELDS}), mech)
+    out = observe(exp, mods.copy(**{name: None for name in SENSOR_FIELDS}), mech if mech_digest else None)
     cache.append((key, exp.p, exp.u, exp.q, out))
     del cache[:-CACHE_SIZE]
     return out
@@ -148,8 +149,6 @@ def observe(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) 
     angles and velocity, its pressures' spline at the first sample), with ``mech``'s rigid body
     and joint torques (None: the nominal body)."""
     robot = exp.robot
-    if mech_key(mech) == "":
-        mech = None
     model = robot.model if mech is None else mech.model(robot.model)
     data = mujoco.MjData(model)
     qadr, dadr = addresses(model, robot.joint_names)
