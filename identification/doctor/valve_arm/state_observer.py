@@ -41,7 +41,11 @@ worse with the true friction than without it (training angle error's mean square
 the frictionless replay's; least at 0.01, 0.64): a fit from them found a third of the truth.
 With the friction in the observer the true value replays 0.14 of the mean square of the
 frictionless replay through it (its velocities alone, the start of each window, changed it by
-0.001).  It runs on the pressures as read (the sensor offsets' fields left out of the
+0.001).  It reads its body through a replay's angle-sensor law: an observer that took a
+true offset's readings as the true angles held its body off them against the cylinders, and on
+a recording of arm2 whose elbow sensor read 0.03 rad high its pressures were 0.70-1.07 kPa rms
+off the simulator's and its velocities 0.11-0.16 rad/s, against 0.27-0.28 kPa and 0.022-0.024
+rad/s reading through the offset (tests/test_doctor_state_observer.py).  It runs on the pressures as read (the sensor offsets' fields left out of the
 chamber model; the replays take the offsets off the forces), and starts again at every join of
 pooled recordings.
 """
@@ -54,6 +58,7 @@ import mujoco
 import numpy as np
 
 from pneumatics.chamber import actuator_force
+from pneumatics.effects.angle_sensor_offset import reading_error, true_angle
 from pneumatics.effects.backlash import addresses
 
 from .data import FINE_DT, Experiment
@@ -117,11 +122,13 @@ def mods_key(mods: PneumaticMods) -> str:
     return h.hexdigest()
 
 
-#: the MechMods fields the observer runs (the angle sensor's fields act on the readings, which
-#: the observer takes as they are)
+#: the MechMods fields of the angle sensors' law (effects.angle_sensor_offset)
+SENSOR_LAW = ("angle_offset_rad", "angle_scale_error")
+#: the MechMods fields the observer runs: the rigid body, the joint torques, and the angle
+#: sensors' law, through which it compares its body's angles with the readings
 OBSERVED_MECH = ("mass_scale", "damping_scale", "armature_scale", "coulomb_nm", "stiction_extra_nm",
                  "viscous_nm_s", "viscous_power_nm", "viscous_exponents", "end_stop_nm_per_rad",
-                 "end_stop_nm_s_per_rad", "end_stops")
+                 "end_stop_nm_s_per_rad", "end_stops", *SENSOR_LAW)
 
 
 def mech_key(mech: MechMods | None) -> str:
@@ -146,8 +153,11 @@ def mech_key(mech: MechMods | None) -> str:
 
 def observe(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) -> ObservedStates:
     """Run the observer over the recording, from each pooled part's start (its light spline's
-    angles and velocity, its pressures' spline at the first sample), with ``mech``'s rigid body
-    and joint torques (None: the nominal body)."""
+    angles and velocity, its pressures' spline at the first sample), with ``mech``'s rigid body,
+    joint torques and angle sensors (None: the nominal body, sensors reading true): its body's
+    angles are compared with the readings through the sensors' law
+    (effects.angle_sensor_offset), so a sensor's offset does not hold the body off its true
+    angle against the cylinders' forces."""
     robot = exp.robot
     model = robot.model if mech is None else mech.model(robot.model)
     data = mujoco.MjData(model)
@@ -158,10 +168,11 @@ def observe(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) 
     F = exp.fine_t.size
     pressure = np.empty((F, tab.n_chambers))
     velocity = np.empty((F, len(qadr)))
+    offset, gain = sensor_law(mech, len(qadr))
     bounds = (0, *exp.breaks, exp.t.size)
     for first, end in zip(bounds[:-1], bounds[1:]):
         f0, f1 = first * S, (end - 1) * S
-        p, receiver = restart(exp, model, data, chambers, u, first, qadr, dadr)
+        p, receiver = restart(exp, model, data, chambers, u, first, qadr, dadr, offset, gain)
         pressure[f0], velocity[f0] = p[0], data.qvel[dadr]
         travel0 = chambers.travel(lengths(model, data, ids))
         acc_q, acc_p = np.zeros(len(qadr)), np.zeros(tab.n_chambers)
@@ -180,7 +191,8 @@ def observe(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) 
             acc_p += p[0]
             if (f + 1 - f0) % S == 0:
                 k = (f + 1) // S
-                e_q = exp.q[k] - (acc_q / S if exp.averaged else data.qpos[qadr])
+                q_sim = acc_q / S if exp.averaged else data.qpos[qadr]
+                e_q = (exp.q[k] - q_sim - reading_error(q_sim, offset, gain - 1.0)) / gain   # in true angle
                 e_p = exp.p[k] - (acc_p / S if exp.averaged else p[0])
                 data.qpos[qadr] += ANGLE_GAIN * e_q
                 data.qvel[dadr] += VELOCITY_GAIN * exp.rate_hz * e_q
@@ -191,18 +203,29 @@ def observe(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) 
         if end < exp.t.size:        # the fine rows padding a join hold the part's last state
             for arr in (pressure, velocity):
                 arr[f1 + 1:end * S] = arr[f1]
+    if np.any(gain != 1.0):
+        velocity *= gain        # as read
     return ObservedStates(pressure, velocity)
 
 
-def restart(exp: Experiment, model, data, chambers: ChamberModel, u: np.ndarray, first: int, qadr, dadr):
+def sensor_law(mech: MechMods | None, J: int) -> tuple[np.ndarray, np.ndarray]:
+    """((J,) offsets [rad], (J,) gains 1 + scale error) of ``mech``'s angle sensors."""
+    offset = np.zeros(J) if mech is None or mech.angle_offset_rad is None else np.asarray(mech.angle_offset_rad, float)
+    scale = np.zeros(J) if mech is None or mech.angle_scale_error is None else np.asarray(mech.angle_scale_error, float)
+    return offset, 1.0 + scale
+
+
+def restart(exp: Experiment, model, data, chambers: ChamberModel, u: np.ndarray, first: int, qadr, dadr,
+            offset: np.ndarray, gain: np.ndarray):
     """Set the observer at sample ``first``, a pooled part's start: the light spline's angles
-    and its slope over the next millisecond, the pressures' spline, the supply's and lines'
+    and its slope over the next millisecond (read back through the sensors' ``offset`` and
+    ``gain``, :func:`sensor_law`), the pressures' spline, the supply's and lines'
     states there; returns
     (pressures (1, C), the supply receiver's path or None)."""
     f0, fq = first * exp.n_sub, exp.fine_q
     mujoco.mj_resetData(model, data)
-    data.qpos[qadr] = fq[f0]
-    data.qvel[dadr] = (fq[f0 + 1] - fq[f0]) / FINE_DT
+    data.qpos[qadr] = true_angle(fq[f0], offset, gain - 1.0)
+    data.qvel[dadr] = (fq[f0 + 1] - fq[f0]) / FINE_DT / gain
     mujoco.mj_forward(model, data)
     start = np.array([f0])
     if chambers.thermal.size:
