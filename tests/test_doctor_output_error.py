@@ -187,6 +187,22 @@ def test_a_true_viscous_friction_is_fitted_through_an_observer_that_runs_it():
     assert named[0].params["viscous_nm_s_per_rad"]["value"] == pytest.approx(b, rel=0.05)
 
 
+def test_a_true_angle_offset_is_named_at_its_joint_through_an_observer_reading_through_it():
+    """An angle sensor's offset: the replay starts from the true angle and reads it through the
+    offset, and so does the state observer of each replay, a probe's too (an observer taking the
+    readings as true holds its body off the true angle against the cylinders).  On arm2 with its
+    body held nominal, the offset is named at its joint with its value."""
+    from identification.doctor.valve_arm.output_error import search_output_error
+    from pneumatics.effects.effect_set import EffectSet
+
+    offset = 0.03
+    run = _held_nominal_run(EffectSet(angle_offset_rad={"elbow": offset}), seed=41, pneumatic_search=False)
+    search_output_error(run, lambda m: None)
+    named = [f for f in run.findings if f.output_error]
+    assert [(f.family, f.where) for f in named] == [("angle_sensor_offset", {"joint": "elbow"})]
+    assert named[0].params["offset_rad"]["value"] == pytest.approx(offset, rel=0.2)
+
+
 def test_a_pressure_sensor_offset_is_named_by_the_force_it_fakes_and_taken_out_of_the_readings():
     """A sensor reading 6 kPa high on elbow.a fakes a constant force on the elbow's cylinder in
     the replays driven by the measured pressures: the screen finds it on the cylinder, the fit
@@ -330,8 +346,8 @@ def test_the_screen_passes_a_physical_friction_on_its_gain_but_an_offset_only_be
     """A friction's screen shares the observer of the model without it, whose pressures make its
     replayed change disagree from window to window: over its floor with a physical value it gets
     its own fit whatever its screen errors (a true viscous friction of humanoid38 screened at 3.7
-    errors); a sensor offset, which the observer does not run, keeps the keep rule's errors, and a
-    friction that would feed energy in is never passed."""
+    errors); a sensor offset, whose screen replays each have the observer they need, keeps the
+    keep rule's errors, and a friction that would feed energy in is never passed."""
     from identification.doctor.valve_arm.hypotheses import mechanical_hypotheses
     from identification.doctor.valve_arm.output_error_fit import OutputErrorFit
     from identification.doctor.valve_arm.output_error_screen import screen_passes

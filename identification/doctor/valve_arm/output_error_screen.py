@@ -176,7 +176,9 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
 
 def screen_passes(fit: OutputErrorFit) -> bool:
     """Whether a screened fit over its family's floor gets its own fit: a physical value, and for
-    a family the state observer does not run (an offset) MIN_T errors from zero.  A friction's
+    a family whose screen replays each have the observer they need (an offset: the observer reads
+    through an angle offset, output_error_fit.replayed, and takes a pressure offset off the
+    forces) MIN_T errors from zero.  A friction's
     screen shares the observer of the model without it, whose pressures between the samples make
     the friction's replayed change disagree from window to window (state_observer.py): a true
     0.050 N m s/rad viscous friction at humanoid38's left_shoulder_pitch (fresh case 649667599 of
