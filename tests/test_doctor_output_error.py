@@ -62,6 +62,26 @@ def test_a_round_names_the_candidate_that_takes_most_off_the_whole_robot():
     assert round_best([elsewhere]) is None and round_best([]) is None
 
 
+def test_the_next_round_fits_again_only_the_candidates_that_came_near_paying():
+    """A finding elsewhere moves a candidate's joint only through the bodies they share: a
+    candidate whose fit removed under REFIT_MIN_GAIN of its joint's training angle error, or
+    that could not be fitted, is not fitted again; one that came near MIN_TRAIN_GAIN is."""
+    from types import SimpleNamespace
+
+    from identification.doctor.valve_arm.output_error import REFIT_MIN_GAIN, refit_candidates
+    from identification.doctor.valve_arm.output_error_fit import MIN_TRAIN_GAIN
+
+    assert REFIT_MIN_GAIN < MIN_TRAIN_GAIN
+    cands = [(SimpleNamespace(hyp=SimpleNamespace(label=name)), np.ones(1)) for name in ("near", "far", "unfitted")]
+
+    def fit(name, gain):
+        return SimpleNamespace(scored=SimpleNamespace(hyp=SimpleNamespace(label=name)), train_gain=gain)
+
+    kept = refit_candidates(cands, [fit("near", 0.15), fit("far", 0.03)])
+    assert [s.hyp.label for s, _ in kept] == ["near"]
+    assert refit_candidates(cands, []) == []
+
+
 def _scored(joint: int, family: str = "pressure_sensor_offset"):
     """A stand-in for a Scored hypothesis: what round_best reads of it."""
     from types import SimpleNamespace
