@@ -91,8 +91,9 @@ def replayed(exp, run: DoctorRun, mm: MechMods, terms, every: int = 1, observer_
     one reading a true offset as none holds its body off the true angle against the cylinders
     (humanoid38, fresh case 649667612 of `6e86fe7`'s subset, read after it was reported: a true
     0.0135 rad offset at left_shoulder_roll replayed its training angle 5.8 times worse than
-    none through such an observer, 0.54 times through one running it; the screen's 0.005 rad
-    probe fitted 0.0033 rad, 2.9 errors, against 0.0089 rad, 8.2 errors)."""
+    none through such an observer, 0.54 times through one running it; the screen fitted it at
+    0.0033 rad, 2.9 errors, and a lone 0.005 rad probe through an observer reading through it,
+    nominal chambers, every other window, at 0.0089 rad, 8.2 errors)."""
     J = len(run.robot.joint_names)
     sensor = [t for t in terms if t[0] in SENSOR_LAW]
     if observer_mech is not None and sensor:

@@ -45,9 +45,9 @@ frictionless replay through it (its velocities alone, the start of each window, 
 true offset's readings as the true angles held its body off them against the cylinders, and on
 a recording of arm2 whose elbow sensor read 0.03 rad high its pressures were 0.70-1.07 kPa rms
 off the simulator's and its velocities 0.11-0.16 rad/s, against 0.27-0.28 kPa and 0.022-0.024
-rad/s reading through the offset (tests/test_doctor_state_observer.py).  It runs on the pressures as read (the sensor offsets' fields left out of the
-chamber model; the replays take the offsets off the forces), and starts again at every join of
-pooled recordings.
+rad/s reading through the offset (tests/test_doctor_state_observer.py).  It runs on the
+pressures as read (the sensor offsets' fields left out of the chamber model; the replays take
+the offsets off the forces), and starts again at every join of pooled recordings.
 """
 from __future__ import annotations
 
