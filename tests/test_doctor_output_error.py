@@ -108,6 +108,13 @@ def test_at_the_named_joint_the_form_is_the_one_the_training_fit_prefers():
     elsewhere = fit(7, "viscous_friction", 0.9, 0.0340)
     assert round_best([coulomb, viscous, stiction, elsewhere]) is viscous
     assert round_best([coulomb, elsewhere]) is coulomb
+    # training gains within FORM_TIE tie, and the robot's held-out error chooses (a fresh
+    # case's numbers: a true viscous friction at right_shoulder_pitch)
+    tied_coulomb = OutputErrorFit(_scored(4, "coulomb_friction"), np.zeros(1), np.ones(1), 0.871,
+                                  0.021, 0.015, 0.02046, 0.02046 - 0.00074)
+    tied_viscous = OutputErrorFit(_scored(4, "viscous_friction"), np.zeros(1), np.ones(1), 0.868,
+                                  0.021, 0.016, 0.02046, 0.02046 - 0.00117)
+    assert round_best([tied_coulomb, tied_viscous]) is tied_viscous
 
 
 def _held_nominal_run(effects, seed, pneumatic_search=True):
