@@ -126,7 +126,6 @@ def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
     if fixed_point is not None:
         fit = refit_observed(run, s, step, base_mm, fixed_point)
         if fit is not None:
-            fit.observed = True
             return fit
     fit = step_fit(run, s, step, base_mm, base_q, base_mm, nuisances)
     if fit is None or not moves_observer(s.hyp, fit.values) or not physical(fit, tested=False):
@@ -159,19 +158,21 @@ def observer_iterated(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, fi
     d = float(np.dot(second.values - theta1, theta1) / max(float(np.dot(theta1, theta1)), 1e-300))
     theta = theta1 / (1.0 - float(np.clip(d, -MAX_OBSERVER_SLOPE, MAX_OBSERVER_SLOPE)))
     last = refit_observed(run, s, step, base_mm, theta)
-    out = second if last is None else last
-    out.observed = True
-    return out
+    return second if last is None else last
 
 
 def refit_observed(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, theta_obs: np.ndarray) -> OutputErrorFit | None:
     """:func:`step_fit` of ``s`` with the observer running ``base_mm`` and ``s``'s torque at
-    ``theta_obs``, the probe stepping to ``theta_obs`` where it has the probe's sign."""
+    ``theta_obs``, the probe stepping to ``theta_obs`` where it has the probe's sign (marked
+    ``observed``)."""
     J = len(run.robot.joint_names)
     observer = with_replay_terms(base_mm, terms_of(s.hyp, theta_obs), J)
     base_q = pressure_driven_angles(run.exp, run.mods, base_mm, every=TRAIN_EVERY, observer_mech=observer)
     probe = np.where((np.sign(theta_obs) == np.sign(step)) & (theta_obs != 0), theta_obs, step)
-    return step_fit(run, s, probe, base_mm, base_q, observer)
+    fit = step_fit(run, s, probe, base_mm, base_q, observer)
+    if fit is not None:
+        fit.observed = True
+    return fit
 
 
 def moves_observer(hyp, values) -> bool:
