@@ -1,7 +1,8 @@
-"""The mass of a joint's subtree as a nuisance beside a constant force: where the rigid body is
-held nominal, its mass errors load each joint with a gravity torque the replays do not carry,
-and where the joint's gravity torque varies little over the recording that error looks like a
-constant actuator force -- a pressure-sensor offset.
+"""The mass of a joint's subtree as a nuisance beside a constant force or a friction: where the
+rigid body is held nominal, its mass errors load each joint with a gravity torque the replays do
+not carry, and where the joint's gravity torque varies little over the recording that error
+looks like a constant actuator force -- a pressure-sensor offset; at humanoid38's jaw, light and
+damped 0.05 N m s/rad, like a friction (output_error_fit.MASS_NUISANCE).
 
 Humanoid38's development recordings (+-3 % body masses and inertias; 2026-12-06, seeds of the
 fresh runs of that day, looked at after they were reported): the output-error search named

@@ -24,11 +24,12 @@ window's errors are one draw, not H.
 1. **Screen** (output_error_screen.py): one replay per parameter and group of joints no one of which
    is an ancestor of another (``joint_levels``; 6 x 11 replays of a third of the training
    windows on humanoid38, one of them the subtree masses'), every joint probed at once; each
-   joint's family fitted on its own angle from them (a pressure-sensor offset beside its
-   joint's subtree mass, mass_nuisance).
-2. **Fit** (output_error_fit.py): the candidates that pass the screen, alone (an
-   offset beside its subtree mass), from their screened values (k replays for k parameters, one
-   more for the mass; a Coulomb friction also as a stiction); a friction fitted again with the
+   joint's family fitted on its own angle from them (a pressure-sensor offset or a friction
+   beside its joint's subtree mass, mass_nuisance).
+2. **Fit** (output_error_fit.py): the candidates that pass the screen, alone (an offset or a
+   friction beside its subtree bodies' masses), from their screened values (k replays for k
+   parameters, one more for each body group's mass at a joint, shared by the joint's candidates
+   of a round; a Coulomb friction also as a stiction); a friction fitted again with the
    state observer running it, at the fixed point of two fits (observer_iterated), which the
    next round's observer starts from.
 3. **Name** (:func:`search_output_error`): a fit whose values are physical and OUTPUT_ERROR_MIN_T

@@ -52,8 +52,15 @@ OUTPUT_ERROR_MIN_T = 8.0
 OFFSET_MIN_T = MIN_T
 #: the families fitted beside the masses of their joint's subtree bodies (mass_nuisance): a
 #: constant force, which a held-nominal body's mass errors fake where the joint's gravity torque
-#: varies little
-MASS_NUISANCE = ("pressure_sensor_offset",)
+#: varies little, and the frictions, which they fake at a light, heavily damped joint.  On the
+#: 42 recorded humanoid38 cases of 2026-12-07 (development and already-reported fresh cases, the
+#: observer's replays) without an effect at the jaw, the screen's viscous gain there followed
+#: the jaw's own mass error (correlation -0.67; mean 0.084 on the cases with a lighter jaw, 0.002
+#: on those with a heavier one; Coulomb -0.62), and both false viscous frictions named there
+#: (918139049, 222108402: 0.0015 N m s/rad, 8.8 errors, 3 % of its 0.05 damping) came from jaws
+#: 3.0 and 2.4 % light; at no other joint did a friction's gain follow its body's mass beyond
+#: -0.34
+MASS_NUISANCE = ("pressure_sensor_offset", "coulomb_friction", "viscous_friction", "stiction")
 
 
 @dataclass
@@ -123,21 +130,38 @@ def fit_by_output_error(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods,
     observer at its ``fixed_point`` of an earlier round (the model then differs by a finding
     elsewhere; each observer of a 60 s recording of humanoid38 costs 4-6 s of a core).
     None when the replays do not move the angle in k directions."""
+    nuisance = joint_nuisance(run, s.hyp, base_mm, base_q, nuisances)
     if fixed_point is not None:
-        fit = refit_observed(run, s, step, base_mm, fixed_point)
+        fit = refit_observed(run, s, step, base_mm, fixed_point, nuisance)
         if fit is not None:
             return fit
-    fit = step_fit(run, s, step, base_mm, base_q, base_mm, nuisances)
+    fit = step_fit(run, s, step, base_mm, base_q, base_mm, nuisance)
     if fit is None or not moves_observer(s.hyp, fit.values) or not physical(fit, tested=False):
         return fit      # an unphysical friction is not run by the observer (it would feed energy in)
-    return observer_iterated(run, s, step, base_mm, fit)
+    return observer_iterated(run, s, step, base_mm, fit, nuisance)
+
+
+def joint_nuisance(run: DoctorRun, hyp, base_mm: MechMods, base_q: np.ndarray, nuisances: dict | None) -> np.ndarray | None:
+    """(W, H, m) the training replay's sensitivities to the masses of ``hyp``'s joint's subtree
+    bodies (mass_nuisance.body_sensitivities) at window_rows(exp, TRAIN_EVERY), from the observer
+    of ``base_mm`` (``base_q``: its replay), kept in ``nuisances`` by joint; None for a family not
+    of MASS_NUISANCE.  A friction's refits through observers running it use these too: a mass
+    changes the replayed angle through the rigid body, which those observers share."""
+    if hyp.family not in MASS_NUISANCE:
+        return None
+    nuisances = {} if nuisances is None else nuisances
+    if hyp.joint not in nuisances:
+        rows = window_rows(run.exp, TRAIN_EVERY)
+        nuisances[hyp.joint] = body_sensitivities(run.exp, run, base_mm, base_q[rows], hyp.joint, TRAIN_EVERY, rows)
+    return nuisances[hyp.joint]
 
 
 #: the observer's fixed-point map is taken as linear only up to this slope (1: no fixed point)
 MAX_OBSERVER_SLOPE = 0.8
 
 
-def observer_iterated(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, first: OutputErrorFit) -> OutputErrorFit:
+def observer_iterated(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, first: OutputErrorFit,
+                      nuisance: np.ndarray | None = None) -> OutputErrorFit:
     """A joint torque's fit with the state observer running it.  The replays are driven by the
     observer's pressures between the samples, which follow the observer's own motion
     (state_observer.py): fitted with an observer that runs without the torque, a true viscous
@@ -150,26 +174,27 @@ def observer_iterated(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, fi
     line (Aitken's extrapolation, Dahlquist & Bjorck, *Numerical Methods*, 1974, §6.6) is the
     observer's value of a last fit, the one returned.  On that case: 0.0241 N m s/rad, 38
     cluster-robust errors from zero (9.4 from the first), the training angle's mean square
-    down 83 % (33 %)."""
+    down 83 % (33 %).  ``nuisance``: :func:`joint_nuisance`'s, fitted beside every step."""
     theta1 = np.asarray(first.values, float)
-    second = refit_observed(run, s, step, base_mm, theta1)
+    second = refit_observed(run, s, step, base_mm, theta1, nuisance)
     if second is None:
         return first
     d = float(np.dot(second.values - theta1, theta1) / max(float(np.dot(theta1, theta1)), 1e-300))
     theta = theta1 / (1.0 - float(np.clip(d, -MAX_OBSERVER_SLOPE, MAX_OBSERVER_SLOPE)))
-    last = refit_observed(run, s, step, base_mm, theta)
+    last = refit_observed(run, s, step, base_mm, theta, nuisance)
     return second if last is None else last
 
 
-def refit_observed(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, theta_obs: np.ndarray) -> OutputErrorFit | None:
+def refit_observed(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, theta_obs: np.ndarray,
+                   nuisance: np.ndarray | None = None) -> OutputErrorFit | None:
     """:func:`step_fit` of ``s`` with the observer running ``base_mm`` and ``s``'s torque at
     ``theta_obs``, the probe stepping to ``theta_obs`` where it has the probe's sign (marked
-    ``observed``)."""
+    ``observed``), beside ``nuisance`` (:func:`joint_nuisance`)."""
     J = len(run.robot.joint_names)
     observer = with_replay_terms(base_mm, terms_of(s.hyp, theta_obs), J)
     base_q = pressure_driven_angles(run.exp, run.mods, base_mm, every=TRAIN_EVERY, observer_mech=observer)
     probe = np.where((np.sign(theta_obs) == np.sign(step)) & (theta_obs != 0), theta_obs, step)
-    fit = step_fit(run, s, probe, base_mm, base_q, observer)
+    fit = step_fit(run, s, probe, base_mm, base_q, observer, nuisance)
     if fit is not None:
         fit.observed = True
     return fit
@@ -184,9 +209,10 @@ def moves_observer(hyp, values) -> bool:
 
 
 def step_fit(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, base_q: np.ndarray,
-             observer: MechMods, nuisances: dict | None = None) -> OutputErrorFit | None:
+             observer: MechMods, nuisance: np.ndarray | None = None) -> OutputErrorFit | None:
     """One Gauss-Newton step from zero (:func:`fit_by_output_error`), every replay's observer
-    running ``observer``."""
+    running ``observer``, beside ``nuisance`` ((W, H, m) at window_rows(exp, TRAIN_EVERY):
+    :func:`joint_nuisance`) where given."""
     h, exp = s.hyp, run.exp
     rows = window_rows(exp, TRAIN_EVERY)
     cols = []
@@ -198,12 +224,7 @@ def step_fit(run: DoctorRun, s, step: np.ndarray, base_mm: MechMods, base_q: np.
     A = np.stack(cols, axis=-1)                                            # (W, H, k)
     r = exp.q[rows, h.joint] - base_q[rows, h.joint]                       # (W, H)
     ok = np.all(np.isfinite(A), axis=(1, 2)) & np.all(np.isfinite(r), axis=1)
-    nuisance = None
-    if h.family in MASS_NUISANCE:
-        nuisances = {} if nuisances is None else nuisances
-        if h.joint not in nuisances:
-            nuisances[h.joint] = body_sensitivities(exp, run, base_mm, base_q[rows], h.joint, TRAIN_EVERY, rows)
-        nuisance = nuisances[h.joint]
+    if nuisance is not None:
         ok &= np.all(np.isfinite(nuisance), axis=(1, 2))
     A, r = A[ok], r[ok]
     if nuisance is not None:

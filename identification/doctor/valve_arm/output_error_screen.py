@@ -125,7 +125,7 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
     steps, rows = probe_steps(run), window_rows(exp, SCREEN_EVERY)
     base = pressure_driven_angles(exp, run.mods, base_mm, every=SCREEN_EVERY)[rows]      # (W, H, J)
     r = exp.q[rows] - base
-    passed = []
+    passed, masses = [], None
     for family in SCREEN_FAMILIES:
         param = SCREEN_FAMILIES[family]
         sens = np.full(base.shape, np.nan)
@@ -136,12 +136,9 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
                 q = replayed(exp, run, base_mm, terms, every=SCREEN_EVERY, observer_mech=base_mm)[rows]
                 for j in probed:
                     sens[:, :, j] = (q[:, :, j] - base[:, :, j]) / steps[param][j]
-        nuisance = None
-        if family in MASS_NUISANCE:  # each joint's subtree mass, probed a level at a time
-            nuisance = np.full(base.shape, np.nan)
-            for level in joint_levels(robot):
-                got = mass_sensitivity(exp, run, base_mm, base, level, SCREEN_EVERY, rows)
-                nuisance[:, :, level] = got[:, :, level]
+        if family in MASS_NUISANCE and masses is None:
+            masses = subtree_mass_sensitivities(run, base_mm, base, rows)
+        nuisance = masses if family in MASS_NUISANCE else None
         data = [joint_data(sens[:, :, j], r[:, :, j], None if nuisance is None else nuisance[:, :, j])
                 if (family, j) in screen else None for j in range(J)]
         fits = []
@@ -171,6 +168,17 @@ def screened(run: DoctorRun, base_mm: MechMods) -> list[tuple]:
             out.append((Scored(hyps[("stiction", f.scored.hyp.joint)], f.train_gain), np.repeat(f.values, 2)))
         if f.scored.hyp.joint in chamber_b and f.scored.hyp.family == "pressure_sensor_offset":
             out.append((Scored(chamber_b[f.scored.hyp.joint], f.train_gain), -step))
+    return out
+
+
+def subtree_mass_sensitivities(run: DoctorRun, base_mm: MechMods, base: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """(W, H, J) each joint's angle's sensitivity to its subtree's one mass scale, probed a level
+    of :func:`joint_levels` at a time (``base``: the screen's replay of ``base_mm`` at ``rows``):
+    the screen's mass nuisance, the same for every family of MASS_NUISANCE."""
+    out = np.full(base.shape, np.nan)
+    for level in joint_levels(run.robot):
+        got = mass_sensitivity(run.exp, run, base_mm, base, level, SCREEN_EVERY, rows)
+        out[:, :, level] = got[:, :, level]
     return out
 
 
