@@ -117,10 +117,10 @@ def test_at_the_named_joint_the_form_is_the_one_the_training_fit_prefers():
     assert round_best([tied_coulomb, tied_viscous]) is tied_viscous
 
 
-def _held_nominal_run(effects, seed, pneumatic_search=True):
+def _held_nominal_run(effects, seed, pneumatic_search=True, recorded=None):
     """arm2's doctor run up to the joint search on 20 s + 10 s recordings of the nominal arm
-    with ``effects``, its rigid body held nominal as the body check holds humanoid38's (without
-    the pressure replays' search if not ``pneumatic_search``)."""
+    (or of the robot ``recorded``) with ``effects``, its rigid body held nominal as the body
+    check holds humanoid38's (without the pressure replays' search if not ``pneumatic_search``)."""
     from identification.doctor.valve_arm.diagnose import _calibrated_run
     from identification.doctor.valve_arm.mechanics import fit_rigid_body, hold_nominal
     from identification.doctor.valve_arm.search import search_pneumatic, start_torque_balance
@@ -128,7 +128,7 @@ def _held_nominal_run(effects, seed, pneumatic_search=True):
     from scenarios._cases import _record
 
     robot = load_robot("arm2")
-    recs = _record(robot, effects, seed, 20.0, 10.0)
+    recs = _record(recorded or robot, effects, seed, 20.0, 10.0)
     run, _ = _calibrated_run(robot, [recs["main"]], [recs["heldout"]], lambda m: None)
     for td in (run.td, run.td_h):
         hold_nominal(td, "held nominal by the test, as humanoid38's body check holds it")
@@ -396,7 +396,7 @@ def test_the_screen_passes_a_physical_friction_on_its_gain_but_an_offset_only_be
     assert screen_passes(fit("angle_sensor_offset", 0.002, 1.1 * MIN_T))
 
 
-def test_a_friction_a_light_link_fakes_is_taken_by_its_mass():
+def test_a_friction_a_light_link_fakes_is_taken_by_its_mass(monkeypatch):
     """arm2 recorded with its forearm (mass and inertia) 10 % light and no friction, its body
     held nominal: with only the pressure offsets beside their subtree masses the screen fits a
     viscous friction at the elbow over its floor (the held-nominal body's heavier forearm, as
@@ -405,38 +405,25 @@ def test_a_friction_a_light_link_fakes_is_taken_by_its_mass():
     candidate.  (Seed 37; on seed 38 the light forearm faked no friction either way.)"""
     from identification.doctor.valve_arm import output_error_screen
     from identification.doctor.valve_arm.angle_replay import final_mech_mods
-    from identification.doctor.valve_arm.diagnose import _calibrated_run
-    from identification.doctor.valve_arm.mechanics import fit_rigid_body, hold_nominal
-    from identification.doctor.valve_arm.output_error_fit import MASS_NUISANCE
     from identification.doctor.valve_arm.output_error_screen import SCREEN_GAIN, screened
-    from identification.doctor.valve_arm.search import start_torque_balance
     from pneumatics.effects.effect_set import EffectSet
     from pneumatics.robot import load_robot
-    from scenarios._cases import _record
 
-    truth = load_robot("arm2")
-    forearm = truth.model.body("forearm").id
-    truth.model.body_mass[forearm] *= 0.9
-    truth.model.body_inertia[forearm] *= 0.9
-    recs = _record(truth, EffectSet(), 37, 20.0, 10.0)
-    robot = load_robot("arm2")
-    run, _ = _calibrated_run(robot, [recs["main"]], [recs["heldout"]], lambda m: None)
-    for td in (run.td, run.td_h):
-        hold_nominal(td, "held nominal by the test, as humanoid38's body check holds it")
-    run.rfit = fit_rigid_body(run.td)
-    start_torque_balance(run)
+    light = load_robot("arm2")
+    forearm = light.model.body("forearm").id
+    light.model.body_mass[forearm] *= 0.9
+    light.model.body_inertia[forearm] *= 0.9
+    run = _held_nominal_run(EffectSet(), seed=37, pneumatic_search=False, recorded=light)
     mm = final_mech_mods(run, fit=run.rfit)
 
-    def elbow_viscous_gain(nuisance_families):
-        output_error_screen.MASS_NUISANCE = nuisance_families
-        try:
-            cands = screened(run, mm)
-        finally:
-            output_error_screen.MASS_NUISANCE = MASS_NUISANCE
+    def elbow_viscous_gain():
+        cands = screened(run, mm)
         frictions = [s for s, _ in cands if s.hyp.joint == 1 and s.hyp.family.endswith(("friction", "stiction"))]
         return run.output_error_screen["viscous_friction"]["gains"]["elbow"], frictions
 
-    without, _ = elbow_viscous_gain(("pressure_sensor_offset",))
-    beside, frictions = elbow_viscous_gain(MASS_NUISANCE)
+    monkeypatch.setattr(output_error_screen, "MASS_NUISANCE", ("pressure_sensor_offset",))
+    without, _ = elbow_viscous_gain()
+    monkeypatch.undo()
+    beside, frictions = elbow_viscous_gain()
     assert without > SCREEN_GAIN        # measured 0.28
     assert beside < SCREEN_GAIN and not frictions
