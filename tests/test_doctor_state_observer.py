@@ -187,3 +187,39 @@ def test_on_a_limit_cycle_a_friction_replays_right_only_through_an_observer_that
     # each against the frictionless replay through the same observer
     assert mean_square(b, 0.0) > 0.9 * mean_square(0.0, 0.0)
     assert mean_square(b, b) < 0.3 * mean_square(0.0, b)
+
+
+def test_the_compiled_observer_is_its_python_twin(arm2, recorded):
+    """observe (the chambers, forces and joint torques compiled between MuJoCo's half steps)
+    against observe_reference (MuJoCo's whole step and the chamber model's numpy-fed step):
+    the nominal observer to the bit, on two pooled recordings; with every friction term, a
+    power-law viscous friction, an engaged end stop, a mass change, an angle offset and a valve
+    leak to round-off (tanh and exp compiled differ in the last bit); a state torque, which
+    only the Python loop runs, equal to the viscous friction it writes as a function."""
+    from identification.doctor.valve_arm.replay import MechMods
+    from identification.doctor.valve_arm.state_observer import observe, observe_reference
+
+    other = _recorded(arm2, 2.0, 6)[0]
+    exp = pool([prepare(arm2, recorded[0]), prepare(arm2, other)])
+    C, J = arm2.tables.n_chambers, len(arm2.joint_names)
+    nominal = PneumaticMods.nominal(C)
+    fast, slow = observe(exp, nominal), observe_reference(exp, nominal)
+    assert np.array_equal(fast.pressure_pa, slow.pressure_pa)
+    assert np.array_equal(fast.velocity_rad_s, slow.velocity_rad_s)
+
+    stop = float(np.quantile(exp.q[:, 1], 0.8))
+    mech = MechMods(mass_scale={arm2.model.body(arm2.model.nbody - 1).name: 0.05},
+                    coulomb_nm=np.array([0.02, 0.01]), stiction_extra_nm=np.array([0.0, 0.03]),
+                    viscous_nm_s=np.array([0.04, 0.0]), viscous_power_nm=np.array([0.0, 0.02]),
+                    viscous_exponents={1: 0.6}, angle_offset_rad=np.array([0.0, 0.01]),
+                    end_stop_nm_per_rad=np.array([0.0, 30.0]), end_stop_nm_s_per_rad=np.array([0.0, 0.5]),
+                    end_stops={1: (stop, 1)})
+    leaky = nominal.copy(valve_leak_m2=np.array([0.0, 2e-8, 0.0, 0.0]))
+    fast, slow = observe(exp, leaky, mech), observe_reference(exp, leaky, mech)
+    assert not np.allclose(fast.pressure_pa, observe(exp, nominal).pressure_pa)
+    np.testing.assert_allclose(fast.pressure_pa, slow.pressure_pa, rtol=0, atol=1e-3)
+    np.testing.assert_allclose(fast.velocity_rad_s, slow.velocity_rad_s, rtol=0, atol=1e-6)
+
+    as_function = observe(exp, nominal, MechMods(state_torques={1: lambda q, qd: -0.05 * qd}))
+    viscous = observe(exp, nominal, MechMods(viscous_nm_s=np.array([0.0, 0.05])))
+    np.testing.assert_allclose(as_function.pressure_pa, viscous.pressure_pa, rtol=0, atol=1e-3)

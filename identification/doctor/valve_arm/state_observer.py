@@ -62,6 +62,7 @@ from pneumatics.effects.angle_sensor_offset import reading_error, true_angle
 from pneumatics.effects.backlash import addresses
 
 from .data import FINE_DT, Experiment
+from .observer_kernel import chamber_travel, fine_step, pack_torque_law, set_actuation
 from .pneumatic import ChamberModel, effective_commands
 from .pneumatic_mods import PneumaticMods
 from .replay import MechMods
@@ -157,7 +158,72 @@ def observe(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) 
     joint torques and angle sensors (None: the nominal body, sensors reading true): its body's
     angles are compared with the readings through the sensors' law
     (effects.angle_sensor_offset), so a sensor's offset does not hold the body off its true
-    angle against the cylinders' forces."""
+    angle against the cylinders' forces.
+
+    The chambers' step, forces and joint torques are compiled (observer_kernel) between
+    MuJoCo's two half steps; :func:`observe_reference` is the same loop in Python, and runs the
+    state torques (a yardstick's Python functions) and the RK4 integrator this path cannot."""
+    robot = exp.robot
+    if (mech is not None and mech.state_torques) or robot.model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4:
+        return observe_reference(exp, mods, mech)
+    model = robot.model if mech is None else mech.model(robot.model)
+    data = mujoco.MjData(model)
+    qadr, dadr = addresses(model, robot.joint_names)
+    qadr, dadr = np.asarray(qadr, np.int64), np.asarray(dadr, np.int64)
+    ids, tab, S = np.asarray(robot.actuator_ids, np.int64), robot.tables, exp.n_sub
+    geometry = (ids, np.asarray(tab.actuator_of_chamber, np.int64), np.asarray(tab.length_zero, float),
+                np.asarray(tab.stroke, float), np.asarray(tab.is_a, np.bool_))
+    forces = (ids, np.asarray(tab.area_a, float), np.asarray(tab.area_b, float), float(tab.room_pa))
+    law, active = pack_torque_law(mech, len(qadr))
+    chambers = ChamberModel(robot, mods, 1)
+    kargs = chambers._kernel_args
+    u = np.ascontiguousarray(effective_commands(exp, mods))
+    F, C, J = exp.fine_t.size, tab.n_chambers, len(qadr)
+    pressure, velocity = np.empty((F, C)), np.empty((F, J))
+    offset, gain = sensor_law(mech, J)
+    rate_hz = exp.rate_hz
+    travel0, travel1, p_next = np.empty((1, C)), np.empty((1, C)), np.empty((1, C))
+    acc_q, acc_p = np.zeros(J), np.zeros(C)
+    bounds = (0, *exp.breaks, exp.t.size)
+    for first, end in zip(bounds[:-1], bounds[1:]):
+        f0, f1 = first * S, (end - 1) * S
+        p, receiver = restart(exp, model, data, chambers, u, first, qadr, dadr, offset, gain)
+        path = np.zeros(0) if receiver is None else np.ascontiguousarray(receiver, float)
+        p = np.ascontiguousarray(p, float)
+        pressure[f0], velocity[f0] = p[0], data.qvel[dadr]
+        chamber_travel(data.actuator_length, *geometry, travel0)
+        set_actuation(p, data.qpos, data.qvel, qadr, dadr, *forces, law, active, data.ctrl, data.qfrc_applied)
+        acc_q[:], acc_p[:] = 0.0, 0.0
+        for f in range(f0, f1):
+            mujoco.mj_step2(model, data)
+            mujoco.mj_step1(model, data)
+            fine_step(f, p, u[f:f + 1], travel0, travel1, data.actuator_length, *geometry, path, float(tab.supply_pa),
+                      kargs, chambers.T, chambers.p_tube, chambers.supply_shift, acc_p, data.qpos, qadr, acc_q, p_next)
+            p, p_next = p_next, p
+            if (f + 1 - f0) % S == 0:
+                k = (f + 1) // S
+                q_sim = acc_q / S if exp.averaged else data.qpos[qadr]
+                e_q = (exp.q[k] - q_sim - reading_error(q_sim, offset, gain - 1.0)) / gain   # in true angle
+                e_p = exp.p[k] - (acc_p / S if exp.averaged else p[0])
+                data.qpos[qadr] += ANGLE_GAIN * e_q
+                data.qvel[dadr] += VELOCITY_GAIN * rate_hz * e_q
+                p += PRESSURE_GAIN * e_p[None]
+                acc_q[:], acc_p[:] = 0.0, 0.0
+                mujoco.mj_step1(model, data)    # the next step starts from the corrected state
+                chamber_travel(data.actuator_length, *geometry, travel0)
+            set_actuation(p, data.qpos, data.qvel, qadr, dadr, *forces, law, active, data.ctrl, data.qfrc_applied)
+            pressure[f + 1], velocity[f + 1] = p[0], data.qvel[dadr]
+        if end < exp.t.size:        # the fine rows padding a join hold the part's last state
+            for arr in (pressure, velocity):
+                arr[f1 + 1:end * S] = arr[f1]
+    if np.any(gain != 1.0):
+        velocity *= gain        # as read
+    return ObservedStates(pressure, velocity)
+
+
+def observe_reference(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) -> ObservedStates:
+    """:func:`observe` as a readable Python loop: every 1 ms step MuJoCo's whole step, the
+    actuators' lengths, the chamber model's step (pneumatic.ChamberModel.step) and replay.MechMods.torque."""
     robot = exp.robot
     model = robot.model if mech is None else mech.model(robot.model)
     data = mujoco.MjData(model)
@@ -169,6 +235,7 @@ def observe(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) 
     pressure = np.empty((F, tab.n_chambers))
     velocity = np.empty((F, len(qadr)))
     offset, gain = sensor_law(mech, len(qadr))
+    rate_hz = exp.rate_hz
     bounds = (0, *exp.breaks, exp.t.size)
     for first, end in zip(bounds[:-1], bounds[1:]):
         f0, f1 = first * S, (end - 1) * S
@@ -195,7 +262,7 @@ def observe(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) 
                 e_q = (exp.q[k] - q_sim - reading_error(q_sim, offset, gain - 1.0)) / gain   # in true angle
                 e_p = exp.p[k] - (acc_p / S if exp.averaged else p[0])
                 data.qpos[qadr] += ANGLE_GAIN * e_q
-                data.qvel[dadr] += VELOCITY_GAIN * exp.rate_hz * e_q
+                data.qvel[dadr] += VELOCITY_GAIN * rate_hz * e_q
                 p = p + PRESSURE_GAIN * e_p[None]
                 acc_q[:], acc_p[:] = 0.0, 0.0
                 travel0 = chambers.travel(lengths(model, data, ids))
