@@ -2,6 +2,8 @@
 angle_replay.py): the nominal model replays a recording of itself, a true friction term brings
 the replay closer to a recording that has it, a friction the robot does not have moves the replay
 away, and a calibration pays only when it moves the body towards the robot's."""
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -192,3 +194,75 @@ def test_the_burn_in_recovers_a_restart_angle_and_velocity_error(arm2):
         left = true - first - second
         assert np.sqrt(np.mean(left ** 2)) < 0.3 * np.sqrt(np.mean((true - first) ** 2))
 
+
+
+def test_the_compiled_replay_windows_are_their_python_twin(arm2, monkeypatch):
+    """read_angles (each window stepped in compiled code, replay_kernel) against
+    read_angles_reference (every window stepped together through replay.step_windows): the
+    nominal body to the bit; every friction term, a power-law viscous friction, an engaged end
+    stop, a mass change, an angle sensor's offset and gain error, and a backlash (a drive joint
+    MuJoCo carries) to round-off (tanh and exp compiled differ in the last bit); a state torque
+    (a Python function, which only the reference runs) equal to the viscous friction it writes
+    as one."""
+    from identification.doctor.valve_arm import angle_replay
+
+    exp = prepare(arm2, _recording(arm2, seconds=4.0))
+    nominal = PneumaticMods.nominal(arm2.tables.n_chambers)
+
+    def both(pmods, mm):
+        fast = pressure_driven_angles(exp, pmods, mm)
+        with monkeypatch.context() as m:
+            m.setattr(angle_replay, "read_angles", angle_replay.read_angles_reference)
+            slow = pressure_driven_angles(exp, pmods, mm)
+        assert np.array_equal(np.isnan(fast), np.isnan(slow))
+        return fast, slow
+
+    fast, slow = both(nominal, MechMods())
+    assert np.array_equal(fast, slow, equal_nan=True)
+
+    stop = float(np.quantile(exp.q[:, 1], 0.8))
+    mech = MechMods(mass_scale={arm2.model.body(arm2.model.nbody - 1).name: 0.05},
+                    coulomb_nm=np.array([0.02, 0.01]), stiction_extra_nm=np.array([0.0, 0.03]),
+                    viscous_nm_s=np.array([0.04, 0.0]), viscous_power_nm=np.array([0.0, 0.02]),
+                    viscous_exponents={1: 0.6}, angle_offset_rad=np.array([0.0, 0.01]),
+                    angle_scale_error=np.array([0.01, 0.0]), end_stop_nm_per_rad=np.array([0.0, 30.0]),
+                    end_stop_nm_s_per_rad=np.array([0.0, 0.5]), end_stops={1: (stop, 1)})
+    fast, slow = both(nominal, mech)
+    ok = np.isfinite(fast)
+    assert ok.mean() > 0.5
+    np.testing.assert_allclose(fast[ok], slow[ok], rtol=0, atol=1e-9)
+    assert not np.allclose(fast[ok], pressure_driven_angles(exp, nominal, MechMods())[ok])
+    # a drive closing its play onto its link is a discontinuity: the rows where the two differ
+    # are rows where the reference moves as much when the Coulomb levels change by 1e-14 (one
+    # window of this recording, by 1.3e-4 rad)
+    played = nominal.copy(backlash_rad=np.array([0.0, 0.01]))
+    fast, slow = both(played, mech)
+    with monkeypatch.context() as m:
+        m.setattr(angle_replay, "read_angles", angle_replay.read_angles_reference)
+        jitter = pressure_driven_angles(exp, played, replace(mech, coulomb_nm=mech.coulomb_nm * (1 + 1e-14)))
+    differ = np.nan_to_num(np.abs(fast - slow)).max(axis=1) > 1e-9
+    sensitive = np.nan_to_num(np.abs(jitter - slow)).max(axis=1) > 1e-9
+    assert differ.sum() <= 0.05 * differ.size and not np.any(differ & ~sensitive)
+
+    as_function = pressure_driven_angles(exp, nominal, MechMods(state_torques={1: lambda q, qd: -0.05 * qd}))
+    viscous = pressure_driven_angles(exp, nominal, _viscous(arm2, "elbow", 0.05))
+    np.testing.assert_allclose(as_function, viscous, rtol=0, atol=1e-9)
+
+
+def test_the_compiled_torque_law_is_mechmods_torque(rng):
+    """torque_kernel.joint_torques against replay.MechMods.torque (the numpy reference) at random
+    angles and velocities, every term and an end stop on each side."""
+    from identification.doctor.valve_arm.torque_kernel import joint_torques, pack_torque_law
+
+    J = 5
+    mech = MechMods(coulomb_nm=rng.uniform(0, 0.1, J), stiction_extra_nm=rng.uniform(0, 0.1, J),
+                    viscous_nm_s=rng.uniform(0, 0.1, J), viscous_power_nm=rng.uniform(0, 0.1, J),
+                    viscous_exponents={0: 0.5, 3: 1.7}, end_stop_nm_per_rad=rng.uniform(10, 50, J),
+                    end_stop_nm_s_per_rad=rng.uniform(0, 1, J), end_stops={1: (0.2, 1), 4: (-0.1, -1)})
+    law, active = pack_torque_law(mech, J)
+    qadr = dadr = np.arange(J, dtype=np.int64)
+    for _ in range(200):
+        q, qd = rng.uniform(-0.5, 0.5, J), rng.normal(0, 0.3, J) * rng.choice([0.01, 1.0])
+        out = np.zeros(J)
+        joint_torques(q, qd, qadr, dadr, law, active, out)
+        np.testing.assert_allclose(out, mech.torque(q[None], qd[None])[0], rtol=1e-12, atol=1e-15)

@@ -59,12 +59,15 @@ import numpy as np
 from pneumatics.chamber import actuator_force
 from pneumatics.effects.angle_sensor_offset import reading_error
 from pneumatics.effects.backlash import addresses, set_drive_state
+from pneumatics.kernel import MUJOCO_FUNCTIONS
 
 from .data import Experiment
 from .naming import add_breakaway
 from .pneumatic_mods import PneumaticMods
 from .state_observer import observed_states
+from .torque_kernel import pack_torque_law
 from .replay import MechMods, drive_signs, replay_model, start_state, step_windows, window_starts
+from .replay_kernel import compiled_replays_possible, window_angles
 from .rules import DoctorRun, Finding
 from .sensor_offsets import apply_offset
 
@@ -150,7 +153,30 @@ def read_angles(exp: Experiment, model, mm: MechMods, pmods: PneumaticMods, forc
                 starts: np.ndarray, q0: np.ndarray, qd0: np.ndarray, rows: int, offset, scale) -> np.ndarray:
     """(W, rows, J) the angles read at the ``rows`` samples after each window's start, the rigid
     body ``model`` started at the true angles ``q0`` and velocities ``qd0`` (W, J) and driven by
-    the cylinders' 1 ms ``forces`` and ``mm``'s torques; DAQ means where the recording's are."""
+    the cylinders' 1 ms ``forces`` and ``mm``'s torques; DAQ means where the recording's are.
+    Each window stepped in compiled code (replay_kernel.window_angles); the Python loop
+    :func:`read_angles_reference` where that cannot run."""
+    robot, S = exp.robot, exp.n_sub
+    if not compiled_replays_possible(model, mm) or (starts.size and (starts.max() + rows) * S > forces.shape[0]):
+        return read_angles_reference(exp, model, mm, pmods, forces, starts, q0, qd0, rows, offset, scale)
+    qadr, dadr = (np.asarray(a, np.int64) for a in addresses(model, robot.joint_names))
+    ids = np.asarray(robot.actuator_ids, np.int64)
+    law, active = pack_torque_law(mm, len(qadr))
+    forces = np.ascontiguousarray(forces, float)
+    datas = [mujoco.MjData(model) for _ in starts]
+    set_drive_state(model, datas, q0, qd0, drive_signs(robot, pmods, forces[starts * S]), robot.joint_names)
+    out = np.empty((starts.size, rows, len(robot.joint_names)))
+    for w, d in enumerate(datas):
+        window_angles(MUJOCO_FUNCTIONS, np.uint64(model._address), np.uint64(d._address), d.qpos, d.qvel, d.ctrl,
+                      d.qfrc_applied, qadr, dadr, ids, forces, int(starts[w] * S), rows, S, bool(exp.averaged), law,
+                      active, out[w])
+    return out + reading_error(out, offset, scale)
+
+
+def read_angles_reference(exp: Experiment, model, mm: MechMods, pmods: PneumaticMods, forces: np.ndarray,
+                starts: np.ndarray, q0: np.ndarray, qd0: np.ndarray, rows: int, offset, scale) -> np.ndarray:
+    """:func:`read_angles` as a readable Python loop, every window stepped together through
+    replay.step_windows (and ``mm``'s state torques, which only this loop runs)."""
     robot, S = exp.robot, exp.n_sub
     qadr, dadr = addresses(model, robot.joint_names)
     datas = [mujoco.MjData(model) for _ in starts]

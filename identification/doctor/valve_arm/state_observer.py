@@ -62,7 +62,8 @@ from pneumatics.effects.angle_sensor_offset import reading_error, true_angle
 from pneumatics.effects.backlash import addresses
 
 from .data import FINE_DT, Experiment
-from .observer_kernel import chamber_travel, fine_step, pack_torque_law, set_actuation
+from .observer_kernel import chamber_travel, fine_step, set_actuation
+from .torque_kernel import pack_torque_law
 from .pneumatic import ChamberModel, effective_commands
 from .pneumatic_mods import PneumaticMods
 from .replay import MechMods
