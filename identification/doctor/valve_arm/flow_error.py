@@ -40,7 +40,7 @@ from identification.base.smoothing import discrepancy_lambda
 
 from pneumatics.effects.line_dynamics import tube_conductance
 from pneumatics.effects.supply_droop import droop_pa
-from pneumatics.medium import orifice_flow
+from pneumatics.orifice_arrays import orifice_flows
 from pneumatics.tube_kernel import tube_path_compiled
 
 from .data import FINE_DT, Experiment, fine_pressures
@@ -107,7 +107,7 @@ class _Valves:
         less the droop the model's own total supply flow through areas ``a_s`` leaves."""
         ps = self.ps
         if self._droop > 0 or self._droop2 > 0:
-            m0 = orifice_flow(a_s, ps, self.p, self.gas, derivatives=False)[0]
+            m0 = orifice_flows(a_s, ps, self.p, self.gas, derivatives=False)[0]
             total = np.maximum(m0, 0).sum(axis=1, keepdims=True)
             if self._droop_tau > 0:  # behind a receiver (effects.supply_droop, reservoir form)
                 total = lowpass(total, self._droop_tau)
@@ -119,8 +119,8 @@ class _Valves:
         (None without ``derivative``)."""
         a_s, a_e = model_areas(self.tab, self.mods, u)
         ps = self.supply_pressure(a_s)
-        m_s, d_ps, _ = orifice_flow(a_s, ps, self.p, self.gas, derivatives=derivative)
-        m_e = orifice_flow(a_e, self.p, self.tab.room_pa, self.gas, derivatives=False)[0]
+        m_s, d_ps, _ = orifice_flows(a_s, ps, self.p, self.gas, derivatives=derivative)
+        m_e = orifice_flows(a_e, self.p, self.tab.room_pa, self.gas, derivatives=False)[0]
         return m_s, m_e, d_ps
 
 
@@ -214,14 +214,14 @@ def _chamber_features(exp, valves, u_eff, p, v, dp, dv, m_s, m_e, S, bm) -> dict
     room, ps = tab.room_pa, tab.supply_pa
     u = np.repeat(exp.u, S, axis=0)[: p.shape[0]]
     du = u - tab.valve[:, 0]
-    f_sup = orifice_flow(1.0, ps, p, gas, derivatives=False)[0]
-    f_out = orifice_flow(1.0, p, room, gas, derivatives=False)[0]
+    f_sup = orifice_flows(1.0, ps, p, gas, derivatives=False)[0]
+    f_out = orifice_flows(1.0, p, room, gas, derivatives=False)[0]
     near = []
     for w in NULL_WIDTHS_V:
         bump = np.exp(-(du / w) ** 2)
         near += [bm(bump * f_sup), bm(bump * f_out)]
     other = p.reshape(p.shape[0], -1, 2)[:, :, ::-1].reshape(p.shape)       # chamber b of a, a of b
-    cross = orifice_flow(1.0, p, other, gas, derivatives=False)[0]
+    cross = orifice_flows(1.0, p, other, gas, derivatives=False)[0]
     # the motion's compression p dV/dt and its histories; not V dp/dt, which carries the
     # measured pressure's noise the target carries too (errors in variables)
     pdv = p * dv
