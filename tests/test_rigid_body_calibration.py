@@ -95,3 +95,28 @@ def test_an_effect_the_calibration_took_up_hands_the_inertias_back_when_fitted_b
     assert joint["mass_scale.upper_link"] == pytest.approx(1.08, abs=0.02)
     assert joint["mass_scale.forearm"] == pytest.approx(0.94, abs=0.01)
     assert td.calibration.names == td.names  # the rigid body's part only, as fit_rigid_body holds it
+
+
+@pytest.mark.parametrize("name", ["arm2", "humanoid38"])
+def test_a_joints_damping_and_armature_regressors_are_its_own_rate_and_acceleration(name, rng):
+    """torque_balance.own_dof_regressor (b qd_j, a qdd_j at the joint's own dof) against the
+    inverse dynamics with the damping or armature doubled less the nominal's, at random states,
+    some past the joint limits (where MuJoCo's inverse dynamics holds the limits' forces)."""
+    from identification.doctor.valve_arm.torque_balance import finite_difference_regressor, own_dof_regressor
+
+    robot = load_robot(name)
+    lo, hi = robot.joint_range().T
+    n = 40
+    q = lo + (hi - lo) * rng.uniform(-0.05, 1.05, (n, lo.size))
+    qd, qdd = rng.normal(0, 2, q.shape), rng.normal(0, 20, q.shape)
+    qadr, dadr = robot.qpos_index, robot.dof_index
+    checked = 0
+    for j in range(lo.size):
+        for attr in ("dof_damping", "dof_armature"):
+            fast = own_dof_regressor(robot.model, attr, j, dadr, qd, qdd)
+            if fast is None:
+                continue
+            slow = finite_difference_regressor(robot.model, attr, j, qadr, dadr, q, qd, qdd)
+            np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-9 * max(np.abs(slow).max(), 1e-6))
+            checked += 1
+    assert checked >= lo.size

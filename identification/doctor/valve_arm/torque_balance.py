@@ -167,6 +167,29 @@ def _inverse(model, qadr, dadr, q, qd, qdd, ids=None, forces=None, moments=False
     return out, act
 
 
+def own_dof_regressor(model, attr: str, j: int, dadr, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray | None:
+    """(N, J) d tau_inverse / d(scale) of joint j's ``attr`` ("dof_damping" or "dof_armature")
+    scaled by 1 + scale (None where it is 0): MuJoCo's inverse dynamics adds the damping's
+    b qd and the armature's a qdd at that dof alone (qfrc_inverse = M qacc + c - qfrc_passive -
+    qfrc_constraint, the armature on M's diagonal; MuJoCo documentation, "Inverse dynamics"),
+    so the column is b qd_j or a qdd_j (the inverse dynamics of the model with it doubled less
+    the nominal's, :func:`finite_difference_regressor`, to round-off; tests/test_torque_balance.py)."""
+    nominal = float(getattr(model, attr)[dadr[j]])
+    if nominal <= 0:
+        return None
+    reg = np.zeros(qd.shape)
+    reg[:, j] = nominal * (qd[:, j] if attr == "dof_damping" else qdd[:, j])
+    return reg
+
+
+def finite_difference_regressor(model, attr: str, j: int, qadr, dadr, q, qd, qdd) -> np.ndarray:
+    """:func:`own_dof_regressor` the long way: the inverse dynamics with joint j's ``attr``
+    doubled less the nominal model's."""
+    m2 = _copy(model)
+    getattr(m2, attr)[dadr[j]] *= 2.0
+    return _inverse(m2, qadr, dadr, q, qd, qdd)[0] - _inverse(model, qadr, dadr, q, qd, qdd)[0]
+
+
 def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge: int = 10,
                 held_nominal: str = "") -> TorqueData:
     robot = exp.robot
@@ -199,17 +222,13 @@ def torque_data(exp: Experiment, limit_margin_rad: float = np.radians(4.0), edge
         lo.append(-0.35)
         hi.append(0.35)
     for j, jn in enumerate(robot.joint_names):
-        dof = dadr[j]
         # armature: the pistons' reflected inertia is poorly known and weakly identifiable
         for attr, lo_, hi_ in (("dof_damping", -0.3, 0.3), ("dof_armature", -0.5, 2.0)):
-            nominal = getattr(model, attr)[dof]
-            if nominal <= 0:
+            reg = own_dof_regressor(model, attr, j, dadr, exp.qd, exp.qdd)
+            if reg is None:
                 continue
-            m2 = _copy(model)
-            getattr(m2, attr)[dof] *= 2.0
-            reg, _ = _inverse(m2, qadr, dadr, exp.q_s, exp.qd, exp.qdd)
             names.append(f"{attr.split('_')[1]}_scale.{jn}")
-            regs.append(reg - base)
+            regs.append(reg)
             lo.append(lo_)
             hi.append(hi_)
     # tau_inv's change per unit of joint k's angle, and per unit gain of its rates: an angle
