@@ -205,6 +205,13 @@ class ChamberModel:
         ``cs`` (default all): :func:`model_areas`."""
         return model_areas(self.tab, self.mods, u, cs)
 
+    def kernel_args(self) -> tuple:
+        """The compiled step's packed arguments for these mods (chamber_kernel.step_batch's from
+        ``rows`` to ``tube_tau_s``, without the windows' pressures, commands, travels, gas
+        temperatures, supply shifts and tube pressures); the supply flow's array
+        (SUPPLY_FLOW_ARG) is a state the kernel updates."""
+        return self._kernel_args
+
     def kernel_glob(self) -> np.ndarray:
         """The compiled step's gas and plant constants (pneumatics.kernel.pack_glob's array)."""
         return self._kernel_args[17]

@@ -177,7 +177,7 @@ def observe(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) 
     forces = (ids, np.asarray(tab.area_a, float), np.asarray(tab.area_b, float), float(tab.room_pa))
     law, active = pack_torque_law(mech, len(qadr))
     chambers = ChamberModel(robot, mods, 1)
-    kargs = chambers._kernel_args
+    kargs = chambers.kernel_args()
     u = np.ascontiguousarray(effective_commands(exp, mods))
     F, C, J = exp.fine_t.size, tab.n_chambers, len(qadr)
     pressure, velocity = np.empty((F, C)), np.empty((F, J))
@@ -202,13 +202,11 @@ def observe(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) 
                       kargs, chambers.T, chambers.p_tube, chambers.supply_shift, acc_p, data.qpos, qadr, acc_q, p_next)
             p, p_next = p_next, p
             if (f + 1 - f0) % S == 0:
-                k = (f + 1) // S
-                q_sim = acc_q / S if exp.averaged else data.qpos[qadr]
-                e_q = (exp.q[k] - q_sim - reading_error(q_sim, offset, gain - 1.0)) / gain   # in true angle
-                e_p = exp.p[k] - (acc_p / S if exp.averaged else p[0])
-                data.qpos[qadr] += ANGLE_GAIN * e_q
-                data.qvel[dadr] += VELOCITY_GAIN * rate_hz * e_q
-                p += PRESSURE_GAIN * e_p[None]
+                dq, dqd, dp = corrections(exp, (f + 1) // S, acc_q / S if exp.averaged else data.qpos[qadr],
+                                          acc_p / S if exp.averaged else p[0], offset, gain, rate_hz)
+                data.qpos[qadr] += dq
+                data.qvel[dadr] += dqd
+                p += dp[None]
                 acc_q[:], acc_p[:] = 0.0, 0.0
                 mujoco.mj_step1(model, data)    # the next step starts from the corrected state
                 chamber_travel(data.actuator_length, *geometry, travel0)
@@ -258,13 +256,11 @@ def observe_reference(exp: Experiment, mods: PneumaticMods, mech: MechMods | Non
             acc_q += data.qpos[qadr]
             acc_p += p[0]
             if (f + 1 - f0) % S == 0:
-                k = (f + 1) // S
-                q_sim = acc_q / S if exp.averaged else data.qpos[qadr]
-                e_q = (exp.q[k] - q_sim - reading_error(q_sim, offset, gain - 1.0)) / gain   # in true angle
-                e_p = exp.p[k] - (acc_p / S if exp.averaged else p[0])
-                data.qpos[qadr] += ANGLE_GAIN * e_q
-                data.qvel[dadr] += VELOCITY_GAIN * rate_hz * e_q
-                p = p + PRESSURE_GAIN * e_p[None]
+                dq, dqd, dp = corrections(exp, (f + 1) // S, acc_q / S if exp.averaged else data.qpos[qadr],
+                                          acc_p / S if exp.averaged else p[0], offset, gain, rate_hz)
+                data.qpos[qadr] += dq
+                data.qvel[dadr] += dqd
+                p = p + dp[None]
                 acc_q[:], acc_p[:] = 0.0, 0.0
                 travel0 = chambers.travel(lengths(model, data, ids))
             pressure[f + 1], velocity[f + 1] = p[0], data.qvel[dadr]
@@ -274,6 +270,16 @@ def observe_reference(exp: Experiment, mods: PneumaticMods, mech: MechMods | Non
     if np.any(gain != 1.0):
         velocity *= gain        # as read
     return ObservedStates(pressure, velocity)
+
+
+def corrections(exp: Experiment, k: int, q_sim: np.ndarray, p_sim: np.ndarray, offset: np.ndarray,
+                gain: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(angles [rad], velocities [rad/s], pressures [Pa]) to add at sample k: the gains of the
+    module docstring times the innovations, the DAQ's sample less the simulated one (``q_sim``
+    true angles, read through the sensors' ``offset`` and ``gain``; ``p_sim`` pressures)."""
+    e_q = (exp.q[k] - q_sim - reading_error(q_sim, offset, gain - 1.0)) / gain   # in true angle
+    e_p = exp.p[k] - p_sim
+    return ANGLE_GAIN * e_q, VELOCITY_GAIN * rate_hz * e_q, PRESSURE_GAIN * e_p
 
 
 def sensor_law(mech: MechMods | None, J: int) -> tuple[np.ndarray, np.ndarray]:
