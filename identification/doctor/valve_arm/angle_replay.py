@@ -174,7 +174,8 @@ def read_angles(exp: Experiment, model, mm: MechMods, pmods: PneumaticMods, forc
 
 
 def read_angles_reference(exp: Experiment, model, mm: MechMods, pmods: PneumaticMods, forces: np.ndarray,
-                starts: np.ndarray, q0: np.ndarray, qd0: np.ndarray, rows: int, offset, scale) -> np.ndarray:
+                          starts: np.ndarray, q0: np.ndarray, qd0: np.ndarray, rows: int, offset,
+                          scale) -> np.ndarray:
     """:func:`read_angles` as a readable Python loop, every window stepped together through
     replay.step_windows (and ``mm``'s state torques, which only this loop runs)."""
     robot, S = exp.robot, exp.n_sub

@@ -7,7 +7,7 @@ window through all its steps, calling MuJoCo's ``mj_step1`` and ``mj_step2`` (on
 for the Euler integrator, to the bit) through their addresses (pneumatics.kernel.call_mujoco).
 In Python each window's step cost the bindings' calls and small array copies beside MuJoCo's
 step, about a third of a replay of humanoid38.  replay.step_windows is the readable twin
-(tests/test_angle_replay_kernel.py).
+(tests/test_doctor_angle_replay.py).
 """
 from __future__ import annotations
 

@@ -173,7 +173,7 @@ def own_dof_regressor(model, attr: str, j: int, dadr, qd: np.ndarray, qdd: np.nd
     b qd and the armature's a qdd at that dof alone (qfrc_inverse = M qacc + c - qfrc_passive -
     qfrc_constraint, the armature on M's diagonal; MuJoCo documentation, "Inverse dynamics"),
     so the column is b qd_j or a qdd_j (the inverse dynamics of the model with it doubled less
-    the nominal's, :func:`finite_difference_regressor`, to round-off; tests/test_torque_balance.py)."""
+    the nominal's, :func:`finite_difference_regressor`, to round-off; tests/test_rigid_body_calibration.py)."""
     nominal = float(getattr(model, attr)[dadr[j]])
     if nominal <= 0:
         return None

@@ -4,8 +4,8 @@
 The friction law of effects/friction.py (Armstrong-Helouvry, Dupont and Canudas de Wit,
 Automatica 30, 1994, tanh for the sign, the power-law term continued linearly below 0.01
 rad/s) and the end stops' bumper of effects/end_stop.py, packed per joint by
-:func:`pack_torque_law`; MechMods.torque is the numpy reference (tests/test_doctor_state_observer.py,
-tests/test_angle_replay_kernel.py).
+:func:`pack_torque_law`; MechMods.torque is the numpy reference
+(tests/test_doctor_angle_replay.py, tests/test_doctor_state_observer.py).
 """
 from __future__ import annotations
 
@@ -34,7 +34,8 @@ def pack_torque_law(mech, J: int) -> tuple[np.ndarray, np.ndarray]:
         return law, np.zeros(0, np.int64)
     if mech.state_torques:
         raise ValueError("state torques run only in the Python loops")
-    for col, arr in ((0, mech.coulomb_nm), (1, mech.stiction_extra_nm), (2, mech.viscous_nm_s), (3, mech.viscous_power_nm)):
+    terms = (mech.coulomb_nm, mech.stiction_extra_nm, mech.viscous_nm_s, mech.viscous_power_nm)
+    for col, arr in enumerate(terms):
         if arr is not None:
             law[:, col] = np.broadcast_to(np.asarray(arr, float), (J,))
     for j, n in mech.viscous_exponents.items():
