@@ -11,6 +11,7 @@ step, about a third of a replay of humanoid38.  replay.step_windows is the reada
 """
 from __future__ import annotations
 
+import mujoco
 import numba
 import numpy as np
 
@@ -22,8 +23,6 @@ from .torque_kernel import joint_torques
 def compiled_replays_possible(model, mech) -> bool:
     """Whether :func:`window_angles` can step ``model`` under ``mech``: MuJoCo's library found,
     no state torques (Python functions), not the RK4 integrator (no half steps)."""
-    import mujoco
-
     return (MUJOCO_FUNCTIONS is not None and not mech.state_torques
             and model.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4)
 
