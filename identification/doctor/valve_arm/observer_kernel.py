@@ -7,10 +7,10 @@ and leave the actuators' lengths at the new positions, so between them :func:`fi
 those lengths, steps every chamber over the millisecond just simulated
 (chamber_kernel.step_batch) and adds the sample's sums, and :func:`set_actuation` sets the
 cylinders' forces and the joints' friction and end-stop torques for the next step (RK4 has no
-such split: a model integrated with it runs the reference loop).  In Python every 1 ms step of humanoid38
-cost about 125 us, MuJoCo's step 50 us of it and the rest small numpy calls; with these calls
-about 65 us.
-state_observer.observe_reference is the readable twin, checked against this path to round-off.
+such split: a model integrated with it runs the reference loop).  In Python every 1 ms step of
+humanoid38 cost about 125 us, MuJoCo's step 50 us of it and the rest small numpy calls; with
+these calls about 65 us.  state_observer.observe_reference is the readable twin, checked
+against this path to round-off.
 
 The joints' torques are replay.MechMods.torque's, compiled in torque_kernel.py.
 """
