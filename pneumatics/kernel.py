@@ -242,15 +242,20 @@ def _whole_steps(p, volume, volume_rate, a_s, a_e, m_extra, glob, whole, accepte
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def write_friction(qvel, qfrc_applied, fric):
-    """qfrc_applied[dof] = friction torque at qvel (pneumatics.effects.friction.friction_torque,
-    its reference; the power term continued linearly below 0.01 rad/s as there)."""
+    """qfrc_applied[dof] = friction torque at qvel (:func:`friction_at`)."""
     for k in range(fric.shape[0]):
         dof = int(fric[k, 0])
-        v = qvel[dof]
-        s = math.tanh(v / 0.01)
-        power = v * max(abs(v), 0.01) ** (fric[k, 6] - 1.0)
-        qfrc_applied[dof] = -(fric[k, 1] * s + fric[k, 2] * math.exp(-(v / fric[k, 3]) ** 2) * s + fric[k, 4] * v
-                              + fric[k, 5] * power)
+        qfrc_applied[dof] = friction_at(qvel[dof], fric[k, 1], fric[k, 2], fric[k, 3], fric[k, 4], fric[k, 5],
+                                        fric[k, 6])
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def friction_at(v, coulomb, stiction_extra, stribeck, viscous, power_viscous, exponent):
+    """The friction torque [N m] at joint velocity v [rad/s] (pneumatics.effects.friction.friction_torque,
+    its reference; the power term continued linearly below 0.01 rad/s as there)."""
+    s = math.tanh(v / 0.01)
+    power = v * max(abs(v), 0.01) ** (exponent - 1.0)
+    return -(coulomb * s + stiction_extra * math.exp(-(v / stribeck) ** 2) * s + viscous * v + power_viscous * power)
 
 
 @numba.njit(cache=True, error_model="numpy")

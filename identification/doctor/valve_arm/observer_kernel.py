@@ -18,16 +18,18 @@ from __future__ import annotations
 
 import numba
 
+from pneumatics.kernel import write_forces
+
 from .chamber_kernel import step_batch
 from .torque_kernel import joint_torques
 
 
 @numba.njit(cache=True, error_model="numpy")
-def set_actuation(p, qpos, qvel, qadr, dadr, ids, area_a, area_b, room_pa, law, active, ctrl, qfrc):
-    """The cylinders' forces (chamber.actuator_force) from pressures p (1, C) into ``ctrl``, and
-    the torque law's torques at the joints ``active`` into ``qfrc`` (MuJoCo's qfrc_applied)."""
-    for a in range(ids.size):
-        ctrl[ids[a]] = area_a[a] * p[0, 2 * a] - area_b[a] * p[0, 2 * a + 1] - (area_a[a] - area_b[a]) * room_pa
+def set_actuation(p, qpos, qvel, qadr, dadr, act, glob, law, active, ctrl, qfrc):
+    """The cylinders' forces from pressures p (1, C) into ``ctrl`` (the simulator's
+    pneumatics.kernel.write_forces, ``act`` and ``glob`` of pneumatics.kernel.pack), and the
+    torque law's torques at the joints ``active`` into ``qfrc`` (MuJoCo's qfrc_applied)."""
+    write_forces(p[0], ctrl, act, glob)
     joint_torques(qpos, qvel, qadr, dadr, law, active, qfrc)
 
 

@@ -60,6 +60,7 @@ import numpy as np
 from pneumatics.chamber import actuator_force
 from pneumatics.effects.angle_sensor_offset import reading_error, true_angle
 from pneumatics.effects.backlash import addresses
+from pneumatics.kernel import pack
 
 from .data import FINE_DT, Experiment
 from .observer_kernel import chamber_travel, fine_step, set_actuation
@@ -174,7 +175,7 @@ def observe(exp: Experiment, mods: PneumaticMods, mech: MechMods | None = None) 
     ids, tab, S = np.asarray(robot.actuator_ids, np.int64), robot.tables, exp.n_sub
     geometry = (ids, np.asarray(tab.actuator_of_chamber, np.int64), np.asarray(tab.length_zero, float),
                 np.asarray(tab.stroke, float), np.asarray(tab.is_a, np.bool_))
-    forces = (ids, np.asarray(tab.area_a, float), np.asarray(tab.area_b, float), float(tab.room_pa))
+    forces = pack(tab, ids, FINE_DT)[::2]     # (act, glob): the simulator's force writer's tables
     law, active = pack_torque_law(mech, len(qadr))
     chambers = ChamberModel(robot, mods, 1)
     kargs = chambers.kernel_args()

@@ -2,19 +2,17 @@
 (observer_kernel) and the rigid body's replays (replay_kernel) add at every 1 ms step.
 
 The friction law of effects/friction.py (Armstrong-Helouvry, Dupont and Canudas de Wit,
-Automatica 30, 1994, tanh for the sign, the power-law term continued linearly below 0.01
-rad/s) and the end stops' bumper of effects/end_stop.py, packed per joint by
+Automatica 30, 1994), compiled once for the simulator and these (pneumatics.kernel.friction_at),
+and the end stops' bumper of effects/end_stop.py, packed per joint by
 :func:`pack_torque_law`; MechMods.torque is the numpy reference
 (tests/test_doctor_angle_replay.py, tests/test_doctor_state_observer.py).
 """
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
-from pneumatics.effects.friction import SMOOTH_RAD_S
+from pneumatics.kernel import friction_at
 
 #: the Stribeck velocity replay.MechMods.torque runs its stictions with [rad/s]
 STRIBECK_RAD_S = 0.1
@@ -55,10 +53,7 @@ def joint_torques(qpos, qvel, qadr, dadr, law, active, qfrc):
     for i in range(active.size):
         j = active[i]
         v, q = qvel[dadr[j]], qpos[qadr[j]]
-        s = math.tanh(v / SMOOTH_RAD_S)
-        speed = max(abs(v), SMOOTH_RAD_S)
-        tau = -(law[j, 0] * s + law[j, 1] * math.exp(-(v / STRIBECK_RAD_S) ** 2) * s + law[j, 2] * v
-                + law[j, 3] * v * speed ** (law[j, 4] - 1.0))
+        tau = friction_at(v, law[j, 0], law[j, 1], STRIBECK_RAD_S, law[j, 2], law[j, 3], law[j, 4])
         side = law[j, 5]
         if side != 0.0:
             pen = max(q - law[j, 6], 0.0) if side > 0 else min(q - law[j, 6], 0.0)
